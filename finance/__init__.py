@@ -1,0 +1,1 @@
+"""Finance on snapo_ode: natural-gas storage and pension-fund ALM."""

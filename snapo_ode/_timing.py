@@ -1,0 +1,36 @@
+"""Wall-clock timing of JAX functions: compile time apart from the median steady-state run."""
+
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import jax
+
+
+class Timing(NamedTuple):
+    """`first_call_seconds` includes tracing and compiling (or loading from the persistent
+    cache); `compile_seconds` is that minus the median run; `median_seconds` is the median of
+    `repeats` runs after the first."""
+
+    median_seconds: float
+    compile_seconds: float
+    first_call_seconds: float
+    runs: tuple[float, ...]
+
+
+def _call(fn: Callable, args, kwargs) -> tuple[float, Any]:
+    start = time.perf_counter()
+    out = jax.block_until_ready(fn(*args, **kwargs))
+    return time.perf_counter() - start, out
+
+
+def time_function(fn: Callable, *args, repeats: int = 5, **kwargs) -> tuple[Timing, Any]:
+    """Time a jitted `fn(*args, **kwargs)`: one warm-up call, then `repeats` timed calls.
+
+    Returns the `Timing` and the function's output.
+    """
+    first, out = _call(fn, args, kwargs)
+    runs = tuple(_call(fn, args, kwargs)[0] for _ in range(max(repeats, 1)))
+    median = statistics.median(runs)
+    return Timing(median, max(first - median, 0.0), first, runs), out

@@ -1,0 +1,83 @@
+"""Input checks that run in Python, before anything is traced or compiled.
+
+Every failure is an `InputError` that names the field, the value it had and what is allowed.
+Value-dependent checks inside jitted code use `equinox.error_if` instead.
+"""
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+
+class InputError(ValueError):
+    """Bad user input: the message names the field, its value and the allowed range."""
+
+
+def _show(value) -> str:
+    array = np.asarray(value)
+    if array.ndim == 0:
+        return f"{array.item()!r}"
+    return np.array2string(array, threshold=8, precision=6)
+
+
+def check_finite(field: str, value) -> np.ndarray:
+    """Raise unless every entry of `value` is a finite number; returns it as a float64 array."""
+    array = np.asarray(value, dtype=np.float64)
+    bad = ~np.isfinite(array)
+    if bad.any():
+        where = np.argwhere(bad)[0]
+        index = f"[{', '.join(map(str, where))}]" if array.ndim else ""
+        raise InputError(
+            f"{field}{index} = {_show(array[tuple(where)])} is not a finite number; "
+            f"every entry of {field} must be finite."
+        )
+    return array
+
+
+def check_range(
+    field: str,
+    value,
+    low: float = -math.inf,
+    high: float = math.inf,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> np.ndarray:
+    """Raise unless every entry of `value` is finite and in the interval from `low` to `high`.
+
+    `low_open`/`high_open` exclude the end points. Returns the value as a float64 array.
+    """
+    array = check_finite(field, value)
+    below = array <= low if low_open else array < low
+    above = array >= high if high_open else array > high
+    bad = below | above
+    if bad.any():
+        where = np.argwhere(bad)[0]
+        index = f"[{', '.join(map(str, where))}]" if array.ndim else ""
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+        raise InputError(
+            f"{field}{index} = {_show(array[tuple(where)])} is outside the allowed range {interval}."
+        )
+    return array
+
+
+def check_choice(field: str, value: str, allowed: Sequence[str]) -> str:
+    """Raise unless `value` is one of `allowed`, listing the valid choices."""
+    if value not in allowed:
+        raise InputError(f"{field} = {value!r} is not one of: {', '.join(map(repr, allowed))}.")
+    return value
+
+
+def check_increasing(field: str, value, *, strict: bool = True) -> np.ndarray:
+    """Raise unless the 1-D `value` is (strictly) increasing."""
+    array = check_finite(field, value)
+    steps = np.diff(array)
+    bad = steps <= 0 if strict else steps < 0
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"{field} must be {'strictly ' if strict else ''}increasing, but entry {i + 1} "
+            f"({array[i + 1]:g}) follows {array[i]:g}."
+        )
+    return array
