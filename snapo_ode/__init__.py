@@ -13,11 +13,18 @@ from ._effects import (  # noqa: E402
     Scene as Scene,
     count_operations as count_operations,
 )
+from . import smooth as smooth  # noqa: E402
 from ._io import (  # noqa: E402
     atomic_write_bytes as atomic_write_bytes,
     atomic_write_json as atomic_write_json,
     atomic_write_text as atomic_write_text,
 )
+from ._policy import (  # noqa: E402
+    MLPPolicy as MLPPolicy,
+    load_policy as load_policy,
+    save_policy as save_policy,
+)
+from ._rollout import DiscreteStepper as DiscreteStepper, rollout as rollout  # noqa: E402
 from ._sensitivity import (  # noqa: E402
     DEFAULT_RELATIVE_STEP as DEFAULT_RELATIVE_STEP,
     Jacobian as Jacobian,
@@ -27,6 +34,14 @@ from ._sensitivity import (  # noqa: E402
     jacobian as jacobian,
     max_relative_difference as max_relative_difference,
     value_and_sensitivities as value_and_sensitivities,
+)
+from ._training import (  # noqa: E402
+    TrainingDiverged as TrainingDiverged,
+    TrainResult as TrainResult,
+    default_optimizer as default_optimizer,
+    load_checkpoint as load_checkpoint,
+    save_checkpoint as save_checkpoint,
+    train as train,
 )
 from ._timing import Timing as Timing, time_function as time_function  # noqa: E402
 from ._validation import (  # noqa: E402

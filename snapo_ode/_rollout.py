@@ -1,0 +1,96 @@
+"""Discrete-time models x_{k+1} = F(k, x_k, args), rolled out by `jax.lax.scan` or by
+`diffrax.diffeqsolve` through a fixed-step solver.
+
+Both give identical states and gradients (tested). `lax.scan` is the default because it is the
+faster of the two on every case measured (`snapo bench rollout`); the Diffrax route lets a
+discrete-time model share Diffrax's adjoints and its `RecursiveCheckpointAdjoint` memory bound.
+"""
+
+from collections.abc import Callable
+from typing import ClassVar, Literal
+
+import diffrax
+import jax
+import jax.numpy as jnp
+
+from ._validation import InputError, check_choice
+
+RolloutMethod = Literal["scan", "diffrax"]
+
+
+class DiscreteStepper(diffrax.AbstractSolver):
+    """A Diffrax solver that advances a discrete-time map: y1 = vf(t0, y0, args).
+
+    Use with an `ODETerm` whose vector field is the map, `ConstantStepSize` and `dt0` equal to
+    the model's step. It reports no error estimate and never rejects a step.
+    """
+
+    term_structure: ClassVar = diffrax.AbstractTerm
+    interpolation_cls: ClassVar = diffrax.LocalLinearInterpolation
+
+    def order(self, terms):
+        return 1
+
+    def init(self, terms, t0, t1, y0, args):
+        return None
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        y1 = terms.vf(t0, y0, args)
+        return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
+
+    def func(self, terms, t0, y0, args):
+        return terms.vf(t0, y0, args)
+
+
+def rollout(
+    step: Callable,
+    state0,
+    n_steps: int,
+    args=None,
+    *,
+    method: RolloutMethod = "scan",
+    checkpoints: int | None = None,
+):
+    """Roll a discrete-time model forward `n_steps` steps.
+
+    **Arguments:**
+    - `step`: `step(k, state, args) -> state`, with `k` the integer step index (0-based).
+    - `state0`: the initial state, any pytree of arrays.
+    - `n_steps`: number of steps (static).
+    - `method`: `"scan"` (default, faster) or `"diffrax"` (`DiscreteStepper` under
+      `diffeqsolve`, reverse pass by `RecursiveCheckpointAdjoint`).
+    - `checkpoints`: Diffrax only: checkpoints of the adjoint (default `n_steps`, which keeps the
+      gradient near 2-3x the forward cost; fewer bound memory at more recomputation).
+
+    **Returns:** the states, each leaf with a leading axis of length `n_steps + 1` (state0 first).
+    """
+    check_choice("method", method, ("scan", "diffrax"))
+    if not isinstance(n_steps, int) or n_steps < 1:
+        raise InputError(f"n_steps = {n_steps!r} must be a positive integer.")
+    if method == "scan":
+
+        def body(state, k):
+            new = step(k, state, args)
+            return new, new
+
+        _, states = jax.lax.scan(body, state0, jnp.arange(n_steps))
+    else:
+
+        def vector_field(t, state, args):
+            return step(jnp.round(t).astype(int), state, args)
+
+        solution = diffrax.diffeqsolve(
+            diffrax.ODETerm(vector_field),
+            DiscreteStepper(),
+            t0=0.0,
+            t1=float(n_steps),
+            dt0=1.0,
+            y0=state0,
+            args=args,
+            saveat=diffrax.SaveAt(steps=True),
+            stepsize_controller=diffrax.ConstantStepSize(),
+            adjoint=diffrax.RecursiveCheckpointAdjoint(checkpoints=checkpoints or n_steps),
+            max_steps=n_steps,
+        )
+        states = solution.ys
+    return jax.tree.map(lambda first, rest: jnp.concatenate([first[None], rest]), state0, states)

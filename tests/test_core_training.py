@@ -1,0 +1,64 @@
+"""Training: converges on a problem with a known optimum, is deterministic, stops early, guards
+against NaN naming the step, and checkpoints atomically."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import snapo_ode
+
+
+def quadratic_loss(params):
+    loss = jnp.sum((params["x"] - jnp.array([1.0, -2.0])) ** 2)
+    return loss, {"value": -loss}
+
+
+def test_reaches_the_known_minimum():
+    result = snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=400, learning_rate=0.1,
+                             progress=False)
+    np.testing.assert_allclose(result.params["x"], [1.0, -2.0], atol=1e-4)
+    assert result.history["value"][-1] == pytest.approx(-result.history["loss"][-1])
+
+
+def test_deterministic_under_a_key():
+    def noisy(params, key):
+        noise = jax.random.normal(key, (2,))
+        return jnp.sum((params["x"] - noise) ** 2), {}
+
+    runs = [snapo_ode.train(noisy, {"x": jnp.zeros(2)}, steps=20, key=jax.random.key(7), progress=False)
+            for _ in range(2)]
+    np.testing.assert_array_equal(runs[0].params["x"], runs[1].params["x"])
+    assert runs[0].history["loss"] == runs[1].history["loss"]
+
+
+def test_early_stopping_returns_the_best_parameters():
+    flat = lambda params: (jnp.sum(params["x"] * 0.0) + 1.0, {})  # noqa: E731
+    result = snapo_ode.train(flat, {"x": jnp.zeros(2)}, steps=100, patience=5, progress=False)
+    assert result.stopped_early and result.steps_run == 6
+
+
+def test_nan_guard_names_the_step_and_keeps_the_last_good_params():
+    def explodes(params):
+        # Unbounded below, so Adam walks x upward until the loss turns NaN past 0.35.
+        return jnp.where(params["x"][0] > 0.35, jnp.nan, -jnp.sum(params["x"])), {}
+
+    with pytest.raises(snapo_ode.TrainingDiverged, match=r"at step \d+") as info:
+        snapo_ode.train(explodes, {"x": jnp.zeros(2)}, steps=500, learning_rate=0.05, progress=False)
+    assert info.value.step > 0
+    assert float(info.value.params["x"][0]) <= 0.35
+
+
+def test_checkpoint_round_trip(tmp_path):
+    path = tmp_path / "ckpt.eqx"
+    result = snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=30, checkpoint_path=path,
+                             checkpoint_every=10, progress=False)
+    restored = snapo_ode.load_checkpoint(path, {"x": jnp.zeros(2)})
+    np.testing.assert_array_equal(restored["x"], result.params["x"])
+    assert (tmp_path / "ckpt.eqx.json").exists()
+    assert not list(tmp_path.glob(".*tmp"))
+
+
+def test_rejects_bad_step_count():
+    with pytest.raises(snapo_ode.InputError, match="steps"):
+        snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=0)
