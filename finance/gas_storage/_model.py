@@ -1,0 +1,200 @@
+"""The gas-storage model: a policy chooses each day's net flow inside the feasible interval.
+
+Day t = 0..T-1, start-of-day inventory V_t:
+
+    V_{t+1} = V_t + (1 - fuel_loss) inj_t - wd_t,      0 <= V_t <= capacity,  V_T >= V_min
+    inj_t <= max_injection  g_in(V_t / capacity),      wd_t <= max_withdrawal g_out(V_t / capacity)
+    CF_t = -(P_t + injection_cost) inj_t + (P_t - withdrawal_cost) wd_t,   value = sum DF_t CF_t
+
+with P_t the forward curve F_t (deterministic, intrinsic) or the simulated spot (stochastic).
+The policy's action a in [-1, 1] asks for a fraction of the largest injection (a > 0) or
+withdrawal (a < 0); the request is clipped to the feasible interval of net flows, whose lower
+end also keeps the terminal requirement reachable (`inventory_floor`). With `sharpness=None`
+every max/min/clip/ratchet is exact (the hard evaluation); with a float they are the smooth
+surrogates of `snapo_ode.smooth` (training), and the inventory still never leaves [0, capacity].
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from snapo_ode import EffectCatalogue, MLPPolicy, Scene, rollout, smooth
+
+from ._inputs import DAYS_PER_YEAR, StorageInputs
+
+GAS_EFFECTS = EffectCatalogue(
+    "gas storage",
+    {
+        "ratchets": "inventory-dependent injection and withdrawal rate limits (the ratchet tables)",
+        "fuel_loss": "a fraction fuel_loss of injected gas is lost",
+        "costs": "per-unit injection and withdrawal costs",
+        "discounting": "cash flows discounted at the continuously compounded rate",
+        "stochastic_spot": "trade at a simulated one-factor spot around the forward curve",
+    },
+)
+
+
+def deterministic_scene() -> Scene:
+    """Every effect but the stochastic spot: the intrinsic problem."""
+    return GAS_EFFECTS.scene(without=["stochastic_spot"])
+
+
+def stochastic_scene() -> Scene:
+    """Every effect."""
+    return GAS_EFFECTS.scene()
+
+
+class Schedule(NamedTuple):
+    """One simulation. Shapes: (T,) per path for flows, (T+1,) for inventory, with a leading
+    paths axis in stochastic mode. `value` [$] per path; flows [MMBtu/day]; inventory [MMBtu]."""
+
+    value: jax.Array
+    injection: jax.Array
+    withdrawal: jax.Array
+    inventory: jax.Array
+
+
+def rate_fraction(table: jax.Array, fill: jax.Array, scene: Scene, sharpness: float | None):
+    """The ratchet's rate fraction at a fill fraction; 1 when the ratchets effect is off."""
+    if not scene.has("ratchets"):
+        return jnp.ones_like(fill)
+    return smooth.piecewise_linear(fill, table[:, 0], table[:, 1], sharpness)
+
+
+def kept_fraction(inputs: StorageInputs, scene: Scene):
+    """1 - fuel_loss, or exactly 1 when the fuel-loss effect is off."""
+    return 1.0 - inputs.fuel_loss if scene.has("fuel_loss") else 1.0
+
+
+def _flow_sharpness(inputs: StorageInputs, sharpness: float | None):
+    """Sharpness for quantities in MMBtu: the dimensionless `sharpness` per the largest daily
+    rate, so the smoothing gap is about log(2)/sharpness of a day's maximum flow."""
+    if sharpness is None:
+        return None
+    return sharpness / jnp.maximum(inputs.max_injection, inputs.max_withdrawal)
+
+
+def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
+    """L_t, shape (T+1,): the least start-of-day inventory from which V_T >= V_min can still be
+    reached at the maximum injection rate: L_T = V_min, L_t = max(L_{t+1} - (1 - fuel_loss)
+    max_injection g_in(L_{t+1} / capacity), 0). Exact when g_in does not increase with fill
+    (as injection ratchets do), conservative otherwise."""
+    kept = kept_fraction(inputs, scene)
+    flow_k = _flow_sharpness(inputs, sharpness)
+
+    def back(later, _):
+        fill = later / inputs.capacity
+        room = kept * inputs.max_injection * rate_fraction(inputs.injection_ratchet, fill, scene, sharpness)
+        earlier = smooth.relu(later - room, flow_k)
+        return earlier, earlier
+
+    _, floors = jax.lax.scan(back, inputs.terminal_inventory_min, None, length=inputs.n_days)
+    return jnp.concatenate([floors[::-1], inputs.terminal_inventory_min[None]])
+
+
+def policy_features(day, fill, log_spot_ratio, n_days: int, scene: Scene):
+    """Normalised features: day (linear and two seasonal harmonics), fill fraction, and in
+    stochastic mode the spot/forward log-ratio. None of them depends on the forward curve."""
+    phase = 2 * jnp.pi * day / n_days
+    features = [day / n_days, fill, jnp.sin(phase), jnp.cos(phase), jnp.sin(2 * phase), jnp.cos(2 * phase)]
+    if scene.has("stochastic_spot"):
+        features.append(log_spot_ratio)
+    return jnp.stack(features)
+
+
+def n_features(scene: Scene) -> int:
+    return 7 if scene.has("stochastic_spot") else 6
+
+
+def make_policy(scene: Scene, *, key, width: int = 32, depth: int = 2, spot_scale: float = 1.0) -> MLPPolicy:
+    """A policy with actions in [-1, 1] (withdraw all ... inject all); `spot_scale` normalises the
+    spot/forward log-ratio feature (its stationary standard deviation)."""
+    count = n_features(scene)
+    scale = jnp.ones(count).at[6].set(spot_scale) if count == 7 else None
+    return MLPPolicy(count, 1, key=key, width=width, depth=depth, feature_scale=scale,
+                     action_low=-1.0, action_high=1.0)
+
+
+def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices: jax.Array,
+                  log_spot_ratio: jax.Array, *, sharpness: float | None) -> Schedule:
+    """Run the policy over one price path. `prices` and `log_spot_ratio`: shape (T,)."""
+    n_days = inputs.n_days
+    kept = kept_fraction(inputs, scene)
+    flow_k = _flow_sharpness(inputs, sharpness)
+    floor = inventory_floor(inputs, scene, sharpness)
+    daily_rate = inputs.rate / DAYS_PER_YEAR
+
+    def step(day, state, _):
+        inventory, value, _, _ = state
+        fill = inventory / inputs.capacity
+        room = (inputs.capacity - inventory) / kept
+        max_in = smooth.minimum(
+            inputs.max_injection * rate_fraction(inputs.injection_ratchet, fill, scene, sharpness), room, flow_k)
+        max_out = smooth.minimum(
+            inputs.max_withdrawal * rate_fraction(inputs.withdrawal_ratchet, fill, scene, sharpness),
+            inventory, flow_k)
+        upper = kept * max_in
+        lower = smooth.minimum(smooth.maximum(-max_out, floor[day + 1] - inventory, flow_k), upper, flow_k)
+        action = policy(policy_features(day, fill, log_spot_ratio[day], n_days, scene))[0]
+        request = smooth.relu(action, sharpness) * upper - smooth.relu(-action, sharpness) * max_out
+        net = smooth.clip(request, lower, upper, flow_k)
+        injection = smooth.relu(net, flow_k) / kept
+        withdrawal = smooth.relu(-net, flow_k)
+        price = prices[day]
+        if scene.has("costs"):
+            cash = -(price + inputs.injection_cost) * injection + (price - inputs.withdrawal_cost) * withdrawal
+        else:
+            cash = price * (withdrawal - injection)
+        if scene.has("discounting"):
+            cash = cash * jnp.exp(-daily_rate * day)
+        return inventory + kept * injection - withdrawal, value + cash, injection, withdrawal
+
+    zero = jnp.zeros_like(inputs.capacity)
+    states = rollout(step, (inputs.initial_inventory, zero, zero, zero), n_days)
+    inventory, value, injection, withdrawal = states
+    return Schedule(value[-1], injection[1:], withdrawal[1:], inventory)
+
+
+def spot_factor(inputs: StorageInputs, shocks: jax.Array) -> jax.Array:
+    """The Ornstein-Uhlenbeck factor less half its variance, X_t - Var(X_t)/2, on daily steps
+    from X_0 = 0, for shocks of shape (paths, T). Exact discretisation; mean_reversion 0 is
+    Brownian motion."""
+    dt = 1.0 / DAYS_PER_YEAR
+    kappa, sigma = inputs.mean_reversion, inputs.volatility
+    positive = kappa > 1e-12
+    safe_kappa = jnp.where(positive, kappa, 1.0)
+    # Variance added by one step, and its limit dt as kappa -> 0 (double `where` keeps grads finite).
+    step_variance = jnp.where(positive, -jnp.expm1(-2 * safe_kappa * dt) / (2 * safe_kappa), dt)
+    decay = jnp.exp(-kappa * dt)
+    scale = sigma * jnp.sqrt(step_variance)
+
+    def advance(carry, shock):
+        x, variance = carry
+        return (decay * x + scale * shock, decay**2 * variance + sigma**2 * step_variance), x - variance / 2
+
+    n_paths = shocks.shape[0]
+    start = (jnp.zeros(n_paths), jnp.zeros(()))
+    _, factor = jax.lax.scan(advance, start, shocks.T)
+    return factor.T
+
+
+def simulate(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, *, sharpness: float | None,
+             shocks: jax.Array | None = None) -> Schedule:
+    """Simulate the policy: on the forward curve (deterministic scene; `shocks` None), or on
+    Monte Carlo spot paths spot_t = F_t exp(X_t - Var(X_t)/2) with `shocks` of shape
+    (paths, T), common to every call that passes the same array."""
+    if not scene.has("stochastic_spot"):
+        zeros = jnp.zeros_like(inputs.forward_curve)
+        return simulate_path(policy, inputs, scene, inputs.forward_curve, zeros, sharpness=sharpness)
+    if shocks is None:
+        raise ValueError("the stochastic_spot effect needs shocks of shape (paths, T)")
+    factor = spot_factor(inputs, shocks)
+    prices = inputs.forward_curve * jnp.exp(factor)
+    return jax.vmap(lambda p, f: simulate_path(policy, inputs, scene, p, f, sharpness=sharpness))(prices, factor)
+
+
+def expected_value(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, *, sharpness: float | None,
+                   shocks: jax.Array | None = None) -> jax.Array:
+    """The value [$]: deterministic, or the Monte Carlo mean over the shock paths."""
+    return jnp.mean(simulate(policy, inputs, scene, sharpness=sharpness, shocks=shocks).value)
