@@ -1,0 +1,79 @@
+"""Assets: cash, constant-maturity nominal zero-coupon buckets (short and long), an
+inflation-linked zero-coupon bond, a credit bucket and an equity sleeve over the indices, all
+priced off the simulated curve.
+
+A bond bucket of maturity tau is held for a month and rolled: its gross return is
+P_{t+1}(tau - 1/12) / P_t(tau) with P_t(tau) = exp(-y_t(tau) * tau) and y the bucket's yield.
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._market import MONTH, Market
+
+
+class MarketState(NamedTuple):
+    """The simulated market on every path at one month-end.
+
+    `key_rates` (paths, n_tenors) [1/year]; `inflation` (paths,) [1/year]; `cpi` (paths,) the price
+    index, 1 at the start; `spread` (paths,) [1/year]."""
+
+    key_rates: jax.Array
+    inflation: jax.Array
+    cpi: jax.Array
+    spread: jax.Array
+
+
+def zero_rate(key_rates, market: Market, maturity: float):
+    """The zero rate [1/year] at `maturity` [years] by linear interpolation; shape (paths,)."""
+    return key_rates @ jnp.asarray(market.zero_rate_weights(maturity)[0])
+
+
+def _bucket_yields(state: MarketState, market: Market, shortening: float, credit: bool):
+    """Yields of the nominal, inflation-linked and credit buckets at their maturities minus
+    `shortening` [years], stacked (paths, 4), with those maturities (4,)."""
+    short, long = market.bond_maturities
+    maturities = np.array([short, long, market.inflation_linked_maturity, market.credit_maturity])
+    maturities = maturities - shortening
+    weights = jnp.asarray(market.zero_rate_weights(maturities))
+    yields = state.key_rates @ weights.T
+    real = yields[:, 2] - state.inflation
+    credit_yield = yields[:, 3] + state.spread if credit else yields[:, 3]
+    return jnp.stack([yields[:, 0], yields[:, 1], real, credit_yield], axis=1), maturities
+
+
+def initial_prices(factors: dict, market: Market, *, credit: bool) -> jax.Array:
+    """Prices per unit held at the start, shape (5 + n_equities,): cash 1, the four bond buckets
+    (per unit of face value, real face for inflation-linked), then the equity index levels."""
+    rates = jnp.asarray(factors["key_rates"])[None, :]
+    state = MarketState(rates, jnp.reshape(factors["inflation"], (1,)), jnp.ones(1),
+                        jnp.reshape(factors["spread"], (1,)))
+    yields, maturities = _bucket_yields(state, market, 0.0, credit)
+    bonds = jnp.exp(-yields[0] * maturities)
+    return jnp.concatenate([jnp.ones(1), bonds, jnp.asarray(factors["equity_levels"])])
+
+
+def gross_returns(before: MarketState, after: MarketState, equity_shocks, equity_vols,
+                  market: Market, *, credit: bool) -> jax.Array:
+    """Gross monthly returns of the six asset classes on every path, shape (paths, 6).
+
+    **Arguments:** the market at the start and end of the month; `equity_shocks` (paths,
+    n_equities) standard normal; `equity_vols` (n_equities,) [1/sqrt(year)]; `credit`: whether
+    the credit bucket earns its spread and loses `credit_loss_fraction` of it to defaults (else
+    it is a nominal bucket of the credit maturity).
+    """
+    short_rate = zero_rate(before.key_rates, market, MONTH)
+    cash = jnp.exp(short_rate * MONTH)
+    yields_now, maturities = _bucket_yields(before, market, 0.0, credit)
+    yields_next, _ = _bucket_yields(after, market, MONTH, credit)
+    log_bonds = yields_now * maturities - yields_next * (maturities - MONTH)
+    inflation_accrual = jnp.log(after.cpi / before.cpi)
+    log_bonds = log_bonds.at[:, 2].add(inflation_accrual)
+    if credit:
+        log_bonds = log_bonds.at[:, 3].add(-market.credit_loss_fraction * before.spread * MONTH)
+    drift = (short_rate[:, None] + market.equity_premium - 0.5 * equity_vols**2) * MONTH
+    equity = jnp.mean(jnp.exp(drift + equity_vols * jnp.sqrt(MONTH) * equity_shocks), axis=1)
+    return jnp.concatenate([cash[:, None], jnp.exp(log_bonds), equity[:, None]], axis=1)

@@ -1,0 +1,176 @@
+"""The named risk factors: their groups, their sizes for a wanted count N, default values and
+the name of every entry.
+
+Factors travel as a dict `{group: array}` (a pytree with named leaves), so one reverse pass gives a
+sensitivity per entry and `bump_and_revalue` bumps the same entries. Units: rates, spreads and
+volatilities per year (0.02 = 2%); cash flows and holdings in millions of the fund's currency
+(cash flows per month); equity levels are index points (1.0 at the reference date).
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from snapo_ode import InputError, check_finite, check_range
+
+from ._assets import initial_prices
+from ._liabilities import bucket_start_months, default_liability_cash_flows, initial_liability_value
+from ._market import ASSETS, Market
+
+GROUPS = (
+    "key_rates",
+    "rate_vols",
+    "equity_levels",
+    "equity_vols",
+    "inflation",
+    "inflation_vol",
+    "spread",
+    "spread_vol",
+    "liability_cash_flows",
+    "holdings",
+)
+# When N leaves fewer than `FULL_MINIMUM_LIABILITIES` liability buckets beside every other group,
+# only these groups are reported; the volatilities and holdings stay fixed inputs.
+MARKET_GROUPS = ("key_rates", "equity_levels", "inflation", "spread", "liability_cash_flows")
+SCALAR_GROUPS = ("inflation", "inflation_vol", "spread", "spread_vol")
+FULL_MINIMUM_LIABILITIES = 12
+SMALLEST = 9
+
+
+class FactorLayout(NamedTuple):
+    """Sizes of the factor groups and which groups are reported (differentiated).
+
+    `n_tenors` key rates, `n_equities` indices, `n_liability` liability buckets; `reported` in the
+    order of `GROUPS`."""
+
+    n_tenors: int
+    n_equities: int
+    n_liability: int
+    reported: tuple[str, ...]
+
+    def size(self, group: str) -> int:
+        sizes = dict(key_rates=self.n_tenors, rate_vols=self.n_tenors, equity_levels=self.n_equities,
+                     equity_vols=self.n_equities, liability_cash_flows=self.n_liability,
+                     holdings=len(ASSETS) - 1 + self.n_equities)
+        return sizes.get(group, 1)
+
+    @property
+    def n_risk_factors(self) -> int:
+        """N: the number of reported factor entries."""
+        return sum(self.size(group) for group in self.reported)
+
+
+def layout_for(n_risk_factors: int) -> FactorLayout:
+    """The layout with exactly `n_risk_factors` reported entries.
+
+    Key rates grow as N/10 (5 to 50), equity indices as N/100 (1 to 20), and the liability grid
+    takes the rest. Below N = 34 the volatilities and holdings are not reported (they stay fixed).
+
+    **Raises:** `InputError` when `n_risk_factors` is below 9.
+    """
+    if not isinstance(n_risk_factors, (int, np.integer)) or n_risk_factors < SMALLEST:
+        raise InputError(f"risk_factors = {n_risk_factors!r}; allowed: an integer >= {SMALLEST}.")
+    n = int(n_risk_factors)
+    n_equities = int(np.clip(n // 100, 1, 20))
+    n_tenors = int(np.clip(n // 10, 5, 50))
+    full = FactorLayout(n_tenors, n_equities, 0, GROUPS)
+    fixed_part = full.n_risk_factors
+    if n - fixed_part >= FULL_MINIMUM_LIABILITIES:
+        return full._replace(n_liability=n - fixed_part)
+    small = FactorLayout(n_tenors, n_equities, 0, MARKET_GROUPS)
+    return small._replace(n_liability=n - small.n_risk_factors)
+
+
+def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: float = 1.1) -> dict:
+    """Plausible values of every factor group (reported or not) as float64 numpy arrays.
+
+    The holdings are set so the fund starts at `funding_ratio` on the initial curve, in a mix of
+    5% cash, 15% short bonds, 30% long bonds, 10% inflation-linked, 10% credit, 30% equities.
+    """
+    tenors = market.tenors
+    key_rates = 0.025 + 0.015 * (1.0 - np.exp(-tenors / 7.0))
+    equities = np.arange(layout.n_equities)
+    factors = dict(
+        key_rates=key_rates,
+        rate_vols=0.009 - 0.002 * tenors / tenors.max(),
+        equity_levels=np.ones(layout.n_equities),
+        equity_vols=0.15 + 0.06 * equities / max(layout.n_equities - 1, 1),
+        inflation=np.array(0.02),
+        inflation_vol=np.array(0.01),
+        spread=np.array(0.012),
+        spread_vol=np.array(0.004),
+        liability_cash_flows=default_liability_cash_flows(layout.n_liability),
+    )
+    liability = initial_liability_value(factors, market)
+    mix = np.array([0.05, 0.15, 0.30, 0.10, 0.10, 0.30])
+    values = funding_ratio * liability * mix
+    prices = np.asarray(initial_prices(factors, market, credit=True))
+    equity_value = values[-1] / layout.n_equities
+    factors["holdings"] = np.concatenate([values[:-1] / prices[:len(ASSETS) - 1],
+                                          equity_value / factors["equity_levels"]])
+    return factors
+
+
+def check_factors(factors: dict, layout: FactorLayout) -> dict:
+    """Validate every group's shape and range before anything is compiled; returns float64
+    numpy arrays.
+
+    **Raises:** `InputError` naming the group and entry for NaN, a wrong shape, negative
+    volatilities, levels, cash flows or holdings, or rates outside (-10%, 50%).
+    """
+    checked = {}
+    for group in GROUPS:
+        if group not in factors:
+            raise InputError(f"risk factor group {group!r} is missing; needed: {', '.join(GROUPS)}.")
+        value = check_finite(group, factors[group])
+        expected = () if group in SCALAR_GROUPS else (layout.size(group),)
+        if value.shape != expected:
+            raise InputError(f"{group} has shape {value.shape}; expected {expected}.")
+        checked[group] = value
+    check_range("key_rates", checked["key_rates"], -0.1, 0.5)
+    check_range("inflation", checked["inflation"], -0.1, 0.5)
+    check_range("spread", checked["spread"], 0.0, 0.5)
+    for group in ("rate_vols", "equity_vols", "inflation_vol", "spread_vol"):
+        check_range(group, checked[group], 0.0, 2.0)
+    check_range("equity_levels", checked["equity_levels"], 0.0, low_open=True)
+    check_range("liability_cash_flows", checked["liability_cash_flows"], 0.0)
+    check_range("holdings", checked["holdings"], 0.0)
+    if checked["liability_cash_flows"].sum() <= 0:
+        raise InputError("liability_cash_flows are all zero; the funding ratio needs liabilities.")
+    return checked
+
+
+def split_reported(factors: dict, layout: FactorLayout) -> tuple[dict, dict]:
+    """`(reported, fixed)`: the groups whose sensitivities are reported, and the rest."""
+    reported = {group: factors[group] for group in layout.reported}
+    fixed = {group: factors[group] for group in GROUPS if group not in layout.reported}
+    return reported, fixed
+
+
+def factor_names(layout: FactorLayout, market: Market) -> dict[str, list[str]]:
+    """The name of every entry of every group, in the order of `np.ravel(factors[group])`."""
+    tenor_names = [f"{t:.3g}y" for t in market.tenors]
+    equities = [f"equity_{e}" for e in range(layout.n_equities)]
+    return dict(
+        key_rates=[f"key_rate_{t}" for t in tenor_names],
+        rate_vols=[f"rate_vol_{t}" for t in tenor_names],
+        equity_levels=[f"{e}_level" for e in equities],
+        equity_vols=[f"{e}_vol" for e in equities],
+        inflation=["inflation"],
+        inflation_vol=["inflation_vol"],
+        spread=["spread"],
+        spread_vol=["spread_vol"],
+        liability_cash_flows=[f"liability_cash_flow_month_{m + 1}"
+                              for m in bucket_start_months(layout.n_liability)],
+        holdings=[f"holding_{a}" for a in ASSETS[:-1]] + [f"holding_{e}" for e in equities],
+    )
+
+
+def named_sensitivities(gradient: dict, layout: FactorLayout, market: Market) -> dict[str, float]:
+    """Flatten a gradient over the reported groups into `{factor name: value}`."""
+    names = factor_names(layout, market)
+    out = {}
+    for group in layout.reported:
+        for name, value in zip(names[group], np.ravel(np.asarray(gradient[group])), strict=True):
+            out[name] = float(value)
+    return out

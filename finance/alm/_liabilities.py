@@ -1,0 +1,105 @@
+"""Liabilities: monthly benefit cash flows on a grid of buckets, a default from an age profile,
+and their value on the simulated curve.
+
+A cash flow at maturity tau is mapped onto the two neighbouring key tenors by linear
+interpolation in maturity (cash-flow mapping), so the liability value on a path is
+`sum_k profile[t, k] * exp(-key_rate_k * tenor_k)`: K exponentials per path and month, whatever
+the length of the liability grid. The mapping depends on the cash flows and the month only, not
+on the path, and is computed once per evaluation.
+"""
+
+import jax.numpy as jnp
+import numpy as np
+
+from ._market import MONTH, Market, interpolation_weights
+
+MINIMUM_RUN_OFF_MONTHS = 720
+RETIREMENT_AGE = 67.0
+
+
+def run_off_months(n_buckets: int) -> int:
+    """Months covered by a grid of `n_buckets` buckets: monthly buckets once there are at least
+    720 of them, else 720 months in equal buckets (each factor is that bucket's monthly benefit)."""
+    return max(n_buckets, MINIMUM_RUN_OFF_MONTHS)
+
+
+def bucket_of_month(n_buckets: int) -> np.ndarray:
+    """The bucket paying in each month of the run-off, shape (run_off_months,); month 0 is paid
+    at the end of the first month."""
+    months = np.arange(run_off_months(n_buckets))
+    return months * n_buckets // run_off_months(n_buckets)
+
+
+def bucket_start_months(n_buckets: int) -> np.ndarray:
+    """The first month (0-based) of each bucket, shape (n_buckets,)."""
+    return np.searchsorted(bucket_of_month(n_buckets), np.arange(n_buckets))
+
+
+def gompertz_survival(age, years):
+    """Probability of surviving `years` from `age` [years] under the Gompertz hazard
+    5e-5 * exp(0.095 * age) per year (about 3% at 67, 26% at 90)."""
+    a, b = 5e-5, 0.095
+    return np.exp(-(a / b) * (np.exp(b * (age + years)) - np.exp(b * age)))
+
+
+def default_liability_cash_flows(n_buckets: int, *, first_year_benefit: float = 4.0) -> np.ndarray:
+    """Expected monthly benefits [million/month] of a fund with one member per age from 25 to 95,
+    retirement at 67, 1.5% accrual per year of service from 25, Gompertz mortality; averaged per
+    bucket, scaled so the first year pays `first_year_benefit` a month. Shape (n_buckets,).
+
+    A long grid runs past the last survivor: its late buckets are zero, but their sensitivities
+    (the value of one more unit of benefit then) are still defined and reported.
+    """
+    ages = np.arange(25.0, 96.0)
+    pension = 0.015 * (np.minimum(ages, RETIREMENT_AGE) - 25.0)
+    months = np.arange(1, run_off_months(n_buckets) + 1)
+    years = months * MONTH
+    alive = gompertz_survival(ages[:, None], years[None, :])
+    retired = ages[:, None] + years[None, :] >= RETIREMENT_AGE
+    monthly = np.sum(pension[:, None] * alive * retired, axis=0) / 12.0
+    monthly *= first_year_benefit / monthly[:12].mean()
+    buckets = bucket_of_month(n_buckets)
+    return np.bincount(buckets, weights=monthly) / np.bincount(buckets)
+
+
+def monthly_cash_flows(liability_cash_flows) -> jnp.ndarray:
+    """Expand bucket cash flows, shape (n_buckets,), to one per month of the run-off."""
+    return jnp.asarray(liability_cash_flows)[bucket_of_month(np.shape(liability_cash_flows)[0])]
+
+
+def key_rate_profile(liability_cash_flows, market: Market, n_months: int) -> jnp.ndarray:
+    """The outstanding cash flows mapped onto the key tenors at each month-end, shape
+    (n_months + 1, n_tenors): row t maps the flows paid after month t, at maturities
+    (m - t) / 12 years. Linear in the cash flows."""
+    monthly = monthly_cash_flows(liability_cash_flows)
+    run_off = monthly.shape[0]
+    mapping = interpolation_weights(np.arange(1, run_off + 1) * MONTH, market.tenors)
+    padded = jnp.concatenate([monthly, jnp.zeros(n_months + 1, monthly.dtype)])
+    outstanding = padded[np.arange(n_months + 1)[:, None] + np.arange(run_off)[None, :]]
+    return outstanding @ mapping
+
+
+def liability_value(profile_row, key_rates, tenors, *, indexation=None):
+    """Liability value [million] on each path.
+
+    **Arguments:**
+    - `profile_row`: one row of `key_rate_profile`, shape (n_tenors,).
+    - `key_rates`: the simulated key rates, shape (paths, n_tenors).
+    - `tenors` [years], shape (n_tenors,).
+    - `indexation`: `None`, or `(fraction, cpi, inflation)`: that fraction of the benefits is
+      indexed; it is worth `cpi * exp(inflation * tenor)` per unit, with `cpi` (paths,) the price
+      index since the start and `inflation` (paths,) the current rate [1/year].
+    """
+    discount = jnp.exp(-key_rates * tenors)
+    if indexation is None:
+        return discount @ profile_row
+    fraction, cpi, inflation = indexation
+    indexed = cpi[:, None] * jnp.exp(inflation[:, None] * tenors)
+    return (discount * (1.0 - fraction + fraction * indexed)) @ profile_row
+
+
+def initial_liability_value(factors: dict, market: Market) -> float:
+    """The liability value [million] on the initial curve, without indexation."""
+    profile = key_rate_profile(factors["liability_cash_flows"], market, 0)[0]
+    rates = jnp.asarray(factors["key_rates"])[None, :]
+    return float(liability_value(profile, rates, market.tenors)[0])

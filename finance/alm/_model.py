@@ -1,0 +1,222 @@
+"""The pension fund: monthly market scenarios, rebalancing, benefits and contributions, and the
+objective, assembled from named effects.
+
+Each month on every path: value the liabilities on the simulated curve, give the policy the
+funding ratio and the market state, rebalance to its weights (paying transaction costs on the
+turnover), earn the month's asset returns, pay the benefits (partly indexed to inflation) and
+receive contributions. The monthly step is `jax.checkpoint`ed inside `lax.scan`, so a reverse
+pass stores only the per-month state of each path, not the step's intermediates.
+
+Objective (maximised; training minimises its negative), documented in docs/alm.md:
+
+    J = mean_paths[ (1 - exp(-gamma * S)) / gamma ] - mean_paths[ sum_t lambda * dt * shortfall_t^2 ]
+
+with S = (A_T - L_T) / (B_T * L_0) the terminal surplus discounted by the bank account B_T
+and expressed per unit of the initial liability value L_0, gamma the risk aversion, and
+shortfall_t = max(floor - funding_ratio_t, 0) (smooth when training, exact when reporting).
+"""
+
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from snapo_ode import EffectCatalogue, InputError, Scene, check_range, smooth
+
+from ._assets import MarketState, gross_returns, initial_prices, zero_rate
+from ._factors import FactorLayout
+from ._liabilities import key_rate_profile, liability_value, monthly_cash_flows
+from ._market import MONTH, Market
+from ._policy import AbstractRebalancing
+
+EFFECTS = EffectCatalogue(
+    "finance.alm",
+    effects=dict(
+        transaction_costs="proportional cost on the turnover of every monthly rebalancing",
+        inflation_indexation="a share of the benefits grows with the price index",
+        contributions="the sponsor pays a fixed contribution every month",
+        funding_floor="a penalty on the squared shortfall of the funding ratio below a floor",
+        credit="the credit bucket earns a stochastic spread and loses part of it to defaults",
+    ),
+)
+MAX_HORIZON_MONTHS = 600
+
+
+class ALMConfig(eqx.Module):
+    """Parameters of the effects and of the objective.
+
+    **Arguments:**
+    - `transaction_cost` [per unit of turnover]: cost = rate * assets * sum|w_new - w_held|.
+    - `indexation`: share of the benefits indexed to inflation, in [0, 1].
+    - `contribution` [million/month].
+    - `funding_floor`: the funding ratio below which the shortfall is penalised.
+    - `floor_penalty` [1/year]: weight of the squared shortfall, per year below the floor.
+    - `risk_aversion` gamma of the exponential utility of the surplus, > 0.
+    - `turnover_sharpness`, `floor_sharpness`: sharpness of the smooth |.| and max(., 0) used
+      when training [1/unit of weight, 1/unit of funding ratio].
+
+    Neutral values (0 for the first, third and fifth; 0 for `indexation`) make an effect's
+    presence irrelevant; the tests check the full model equals the one without it then.
+    """
+
+    transaction_cost: float = eqx.field(static=True, default=0.002)
+    indexation: float = eqx.field(static=True, default=0.5)
+    contribution: float = eqx.field(static=True, default=1.0)
+    funding_floor: float = eqx.field(static=True, default=1.0)
+    floor_penalty: float = eqx.field(static=True, default=2.0)
+    risk_aversion: float = eqx.field(static=True, default=3.0)
+    turnover_sharpness: float = eqx.field(static=True, default=200.0)
+    floor_sharpness: float = eqx.field(static=True, default=50.0)
+
+    def __check_init__(self):
+        check_range("transaction_cost", self.transaction_cost, 0.0, 0.1)
+        check_range("indexation", self.indexation, 0.0, 1.0)
+        check_range("contribution", self.contribution, 0.0)
+        check_range("funding_floor", self.funding_floor, 0.0, 10.0)
+        check_range("floor_penalty", self.floor_penalty, 0.0)
+        check_range("risk_aversion", self.risk_aversion, 0.0, 100.0, low_open=True)
+        check_range("turnover_sharpness", self.turnover_sharpness, 0.0, low_open=True)
+        check_range("floor_sharpness", self.floor_sharpness, 0.0, low_open=True)
+
+
+class ALMProblem(eqx.Module):
+    """Everything fixed about one study: market structure, factor layout, active effects,
+    effect parameters and horizon.
+
+    **Raises:** `InputError` for `horizon_months` outside [1, 600].
+    """
+
+    market: Market
+    layout: FactorLayout = eqx.field(static=True)
+    scene: Scene
+    config: ALMConfig
+    horizon_months: int = eqx.field(static=True)
+
+    def __check_init__(self):
+        if not isinstance(self.horizon_months, (int, np.integer)) or not (
+                1 <= self.horizon_months <= MAX_HORIZON_MONTHS):
+            raise InputError(f"horizon_months = {self.horizon_months!r}; allowed: an integer in "
+                             f"[1, {MAX_HORIZON_MONTHS}].")
+
+
+class Outcome(NamedTuple):
+    """Per-path results, each shape (paths,): `funding_ratio` at the horizon; `surplus`, the
+    discounted terminal surplus per unit of initial liability; `shortfall_penalty`; and the
+    objective's per-path `utility` (utility of the surplus minus the penalty)."""
+
+    funding_ratio: jax.Array
+    surplus: jax.Array
+    shortfall_penalty: jax.Array
+    utility: jax.Array
+
+
+class _Carry(NamedTuple):
+    market: MarketState
+    assets: jax.Array
+    held: jax.Array
+    log_bank: jax.Array
+    penalty: jax.Array
+
+
+def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, shocks,
+             *, smooth_constraints: bool = True) -> Outcome:
+    """Run the fund over `problem.horizon_months` months on every path.
+
+    **Arguments:**
+    - `factors`: every factor group (see `_factors.GROUPS`), as arrays.
+    - `shocks`: correlated standard normals, shape (months >= horizon, paths, n_drivers), from
+      `correlated_shocks`.
+    - `smooth_constraints`: True for the smooth surrogates (training, sensitivities), False for
+      the exact |.| and max(., 0) (reporting).
+    """
+    market, scene, config = problem.market, problem.scene, problem.config
+    horizon = problem.horizon_months
+    n_paths = shocks.shape[1]
+    credit = scene.has("credit")
+    indexed = scene.has("inflation_indexation")
+    turnover_sharpness = config.turnover_sharpness if smooth_constraints else None
+    floor_sharpness = config.floor_sharpness if smooth_constraints else None
+    tenors = jnp.asarray(market.tenors)
+    loadings = jnp.asarray(market.loadings())
+    n_rate, n_equity = loadings.shape[1], market.n_equities
+    profile = key_rate_profile(factors["liability_cash_flows"], market, horizon)
+    benefits = monthly_cash_flows(factors["liability_cash_flows"])
+    benefits = jnp.concatenate([benefits, jnp.zeros(horizon, benefits.dtype)])[:horizon]
+    key_rates0 = jnp.asarray(factors["key_rates"])
+    inflation0 = jnp.asarray(factors["inflation"])
+    spread0 = jnp.asarray(factors["spread"])
+
+    def liabilities(month, state: MarketState):
+        indexation = (config.indexation, state.cpi, state.inflation) if indexed else None
+        return liability_value(profile[month], state.key_rates, tenors, indexation=indexation)
+
+    ones = jnp.ones(n_paths)
+    start = MarketState(jnp.broadcast_to(key_rates0, (n_paths, key_rates0.size)),
+                        inflation0 * ones, ones, spread0 * ones)
+    value0 = factors["holdings"] * initial_prices(factors, market, credit=credit)
+    held0 = jnp.concatenate([value0[:5], jnp.sum(value0[5:], keepdims=True)])
+    assets0 = jnp.sum(value0)
+    liability0 = liabilities(0, start)
+
+    def step(carry: _Carry, inputs):
+        month, shock = inputs
+        state = carry.market
+        funding_ratio = carry.assets / liabilities(month, state)
+        features = jnp.stack([month / horizon * ones, funding_ratio,
+                              zero_rate(state.key_rates, market, MONTH),
+                              state.key_rates[:, -1], state.inflation, state.spread], axis=1)
+        weights = policy(features)
+        assets = carry.assets
+        if scene.has("transaction_costs"):
+            turnover = jnp.sum(smooth.abs(weights - carry.held, turnover_sharpness), axis=1)
+            assets = assets * (1.0 - config.transaction_cost * turnover)
+        penalty = carry.penalty
+        if scene.has("funding_floor"):
+            shortfall = smooth.penalty_below(funding_ratio, config.funding_floor, floor_sharpness)
+            penalty = penalty + config.floor_penalty * MONTH * shortfall
+        rate_shocks = shock[:, :n_rate] @ loadings.T
+        key_rates = state.key_rates + (
+            market.rate_mean_reversion * (key_rates0 - state.key_rates) * MONTH
+            + factors["rate_vols"] * np.sqrt(MONTH) * rate_shocks)
+        inflation = state.inflation + (
+            market.inflation_mean_reversion * (inflation0 - state.inflation) * MONTH
+            + factors["inflation_vol"] * np.sqrt(MONTH) * shock[:, -2])
+        spread = state.spread
+        if credit:
+            spread = spread + (market.spread_mean_reversion * (spread0 - spread) * MONTH
+                               + factors["spread_vol"] * np.sqrt(MONTH) * shock[:, -1])
+        after = MarketState(key_rates, inflation, state.cpi * jnp.exp(state.inflation * MONTH),
+                            spread)
+        returns = gross_returns(state, after, shock[:, n_rate:n_rate + n_equity],
+                                factors["equity_vols"], market, credit=credit)
+        grown = weights * returns
+        growth = jnp.sum(grown, axis=1)
+        benefit = benefits[month]
+        if indexed:
+            benefit = benefit * (1.0 - config.indexation + config.indexation * after.cpi)
+        assets = assets * growth - benefit
+        if scene.has("contributions"):
+            assets = assets + config.contribution
+        log_bank = carry.log_bank + zero_rate(state.key_rates, market, MONTH) * MONTH
+        return _Carry(after, assets, grown / growth[:, None], log_bank, penalty), None
+
+    carry0 = _Carry(start, assets0 * ones, jnp.broadcast_to(held0 / assets0, (n_paths, 6)),
+                    jnp.zeros(n_paths), jnp.zeros(n_paths))
+    months = jnp.arange(horizon)
+    final, _ = jax.lax.scan(jax.checkpoint(step), carry0, (months, shocks[:horizon]))
+    liability_end = liabilities(horizon, final.market)
+    surplus = (final.assets - liability_end) * jnp.exp(-final.log_bank) / liability0
+    gamma = config.risk_aversion
+    utility = -jnp.expm1(-gamma * surplus) / gamma - final.penalty
+    return Outcome(final.assets / liability_end, surplus, final.penalty, utility)
+
+
+def objective(reported: dict, policy: AbstractRebalancing, shocks, problem: ALMProblem,
+              fixed: dict, *, smooth_constraints: bool = True) -> jax.Array:
+    """The objective J (a scalar, higher is better) as a function of the reported factors first,
+    so that `value_and_sensitivities(objective, reported, ...)` differentiates exactly them."""
+    outcome = simulate(problem, policy, {**fixed, **reported}, shocks,
+                       smooth_constraints=smooth_constraints)
+    return jnp.mean(outcome.utility)
