@@ -1,1 +1,11 @@
 """Chemistry on snapo_ode: Cantera-YAML kinetics in JAX, stiff reactors in Diffrax, the pharma chain."""
+
+from pathlib import Path
+
+from ._crosscheck import RateComparison as RateComparison, compare_rates as compare_rates
+from ._mechanism import Mechanism as Mechanism, RateParameters as RateParameters
+from ._thermo import SpeciesThermo as SpeciesThermo
+from ._units import GAS_CONSTANT as GAS_CONSTANT, ONE_ATM as ONE_ATM
+
+MECHANISMS = Path(__file__).parent / "mechanisms"
+"""The directory of the mechanisms that ship with this package [`reaction_types.yaml`, `pharma.yaml`]."""

@@ -1,0 +1,276 @@
+"""Reading a Cantera YAML file into a `Mechanism`: species thermo, reactions, units."""
+
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+from ruamel.yaml import YAML
+
+from snapo_ode import InputError
+
+from ._equation import parse_equation
+from ._mechanism import Falloff, Orders, RateParameters, ThirdBodies
+from ._thermo import SpeciesThermo
+from ._units import GAS_CONSTANT, ONE_ATM, UnitSystem, rate_constant_factor
+
+_THERMO_MODELS = ("ideal-gas", "ideal-condensed")
+_ACTIVITY_BASES = ("unity", "species-molar-volume", "solvent-molar-volume")
+_SUPPORTED_TYPES = ("elementary", "three-body", "falloff")
+
+
+def _load(path: Path):
+    if not path.is_file():
+        raise InputError(f"mechanism path {str(path)!r} is not a file.")
+    # The round-trip loader keeps line numbers, which unsupported-reaction errors cite.
+    return YAML(typ="rt").load(path.read_text())
+
+
+def _where(path, node) -> str:
+    line = getattr(getattr(node, "lc", None), "line", None)
+    return f"{path}:{line + 1}" if line is not None else str(path)
+
+
+def _pick_phase(path, document, phase):
+    phases = document.get("phases") or []
+    if not phases:
+        raise InputError(f"{path} has no 'phases' section.")
+    names = [p["name"] for p in phases]
+    if phase is None:
+        return phases[0]
+    if phase not in names:
+        raise InputError(f"phase = {phase!r} is not in {path}; phases: {', '.join(names)}.")
+    return phases[names.index(phase)]
+
+
+def _section_names(value, default_section):
+    """The list of (section, names or 'all') a phase's `species`/`reactions` field refers to."""
+    if value is None or value == "all":
+        return [(default_section, "all")]
+    if isinstance(value, str):
+        return [(value, "all")] if value not in ("none", "declared-species") else (
+            [] if value == "none" else [(default_section, "declared")])
+    if all(isinstance(item, str) for item in value):
+        if default_section == "species":
+            return [("species", list(value))]
+        return [(item, "all") for item in value]
+    sections = []
+    for item in value:
+        for section, names in item.items():
+            if "/" in section:
+                raise InputError(f"{section!r}: species or reactions from another file are not supported.")
+            sections.append((section, names))
+    return sections
+
+
+def _thermo(path, species_nodes, units: UnitSystem, thermo_model):
+    n = len(species_nodes)
+    is_nasa = np.zeros(n, bool)
+    t_mid = np.full(n, 1000.0)
+    low, high = np.zeros((n, 7)), np.zeros((n, 7))
+    t0, h0, s0, cp0 = np.full(n, 298.15), np.zeros(n), np.zeros(n), np.zeros(n)
+    volumes = np.zeros(n)
+    for k, node in enumerate(species_nodes):
+        name = node["name"]
+        thermo = node.get("thermo")
+        model = thermo.get("model") if thermo else None
+        if model == "NASA7":
+            data = [list(map(float, d)) for d in thermo["data"]]
+            ranges = list(map(float, thermo["temperature-ranges"]))
+            is_nasa[k] = True
+            low[k] = data[0]
+            high[k] = data[-1]
+            t_mid[k] = ranges[1] if len(data) == 2 else ranges[-1]
+        elif model == "constant-cp":
+            is_nasa[k] = False
+            t0[k] = units.convert(f"species {name} T0", thermo.get("T0", 298.15), "temperature")
+            energy = "energy/quantity"
+            h0[k] = units.convert(f"species {name} h0", thermo.get("h0", 0.0), energy) / GAS_CONSTANT
+            s0[k] = units.convert(f"species {name} s0", thermo.get("s0", 0.0), energy + "/temperature") / GAS_CONSTANT
+            cp0[k] = units.convert(f"species {name} cp0", thermo.get("cp0", 0.0), energy + "/temperature") / GAS_CONSTANT
+        else:
+            raise InputError(f"{_where(path, node)}: species {name!r} has thermo model {model!r}; "
+                             "supported: 'NASA7', 'constant-cp'.")
+        if thermo_model == "ideal-condensed":
+            eos = node.get("equation-of-state") or {}
+            if eos.get("model") != "constant-volume" or "molar-volume" not in eos:
+                raise InputError(f"{_where(path, node)}: species {name!r} needs an equation-of-state "
+                                 "{model: constant-volume, molar-volume: ...} in an ideal-condensed phase.")
+            volumes[k] = units.convert(f"species {name} molar-volume", eos["molar-volume"], "length^3/quantity")
+    thermo = SpeciesThermo(jnp.asarray(is_nasa), jnp.asarray(t_mid), jnp.asarray(low), jnp.asarray(high),
+                           jnp.asarray(t0), jnp.asarray(h0), jnp.asarray(s0), jnp.asarray(cp0))
+    return thermo, volumes
+
+
+class _Reaction:
+    """One reaction's numbers, in SI, before they are stacked into arrays."""
+
+    def __init__(self, where, index, node, species, units, concentration_scaled):
+        self.where, self.index, self.equation = where, index, str(node["equation"])
+        label = f"{where}: reaction {index} ({self.equation})"
+        try:
+            eq = parse_equation(self.equation)
+        except ValueError as error:
+            raise InputError(f"{label}: {error}.") from None
+        kind = node.get("type")
+        if kind is None:
+            kind = "falloff" if eq.falloff else ("three-body" if eq.collider else "elementary")
+        if kind == "falloff" and ("SRI" in node or "Tsang" in node):
+            kind = "falloff (SRI)" if "SRI" in node else "falloff (Tsang)"
+        if kind not in _SUPPORTED_TYPES or any(key in node for key in ("rate-constants", "data", "sticking-coefficient")):
+            raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: "
+                             "elementary, three-body, falloff (Lindemann, Troe).")
+        for name in (*eq.reactants, *eq.products):
+            if name not in species:
+                raise InputError(f"{label}: species {name!r} is not in the phase.")
+        self.kind = kind
+        self.reactants, self.products, self.reversible = eq.reactants, eq.products, eq.reversible
+        if node.get("orders") and self.reversible:
+            raise InputError(f"{label}: explicit orders are only allowed on irreversible reactions.")
+        self.orders = dict(eq.reactants)
+        for name, order in (node.get("orders") or {}).items():
+            if name not in species:
+                raise InputError(f"{label}: orders names species {name!r}, which is not in the phase.")
+            if name not in eq.reactants and not node.get("nonreactant-orders", False):
+                raise InputError(f"{label}: orders names non-reactant {name!r}; set nonreactant-orders: true.")
+            self.orders[name] = float(order)
+        order = sum(self.orders.values()) + (kind == "three-body")
+        rate_key = "high-P-rate-constant" if kind == "falloff" else "rate-constant"
+        if rate_key not in node:
+            raise InputError(f"{label}: missing {rate_key!r}.")
+        self.a, self.b, self.t_a = self._arrhenius(label, node[rate_key], order, units, concentration_scaled)
+        if self.a < 0 and not node.get("negative-A", False):
+            raise InputError(f"{label}: A = {self.a} is negative; allowed only with negative-A: true.")
+        self.efficiencies = None
+        if kind in ("three-body", "falloff"):
+            if eq.collider not in (None, "M"):
+                self.efficiencies = {name: 0.0 for name in species}
+                self.efficiencies[eq.collider] = 1.0
+            else:
+                default = float(node.get("default-efficiency", 1.0))
+                self.efficiencies = {name: default for name in species}
+                for name, value in (node.get("efficiencies") or {}).items():
+                    if name not in species:
+                        raise InputError(f"{label}: efficiency for {name!r}, which is not in the phase.")
+                    self.efficiencies[name] = float(value)
+        if kind == "falloff":
+            self.low = self._arrhenius(label, node["low-P-rate-constant"], order + 1, units, concentration_scaled)
+            troe = node.get("Troe")
+            if troe is None:
+                self.troe = (0.0, 0.0, 0.0, 0.0, 0.0)
+            else:
+                t3, t1 = float(troe["T3"]), float(troe["T1"])
+                # Cantera reads |T| below 1e-300 as infinite, i.e. that term vanishes.
+                inverse = [0.0 if abs(t) < 1e-300 else 1.0 / t for t in (t3, t1)]
+                self.troe = (float(troe["A"]), *inverse, float(troe.get("T2", 0.0)), float("T2" in troe))
+
+    @staticmethod
+    def _arrhenius(label, rate, order, units, concentration_scaled):
+        a = rate["A"]
+        if isinstance(a, str):
+            a = units.convert(f"{label} A", a, "")
+        else:
+            a = float(a) * rate_constant_factor(units, order, concentration_scaled)
+        return a, float(rate.get("b", 0.0)), units.activation_temperature(f"{label} Ea", rate.get("Ea", 0.0))
+
+
+def _orders(species, rows):
+    width = max([len(row) for row in rows] + [1])
+    index = np.full((len(rows), width), len(species), np.int32)
+    order = np.ones((len(rows), width))
+    for i, row in enumerate(rows):
+        for j, (name, value) in enumerate(row.items()):
+            index[i, j] = species.index(name)
+            order[i, j] = value
+    return Orders(jnp.asarray(index), jnp.asarray(order))
+
+
+def read_mechanism(cls, path, phase=None):
+    """Build `cls` (a `Mechanism`) from phase `phase` of the YAML file at `path`."""
+    path = Path(path)
+    document = _load(path)
+    units = UnitSystem(document.get("units"))
+    phase_node = _pick_phase(path, document, phase)
+    thermo_model = phase_node.get("thermo")
+    if thermo_model not in _THERMO_MODELS:
+        raise InputError(f"phase {phase_node['name']!r}: thermo = {thermo_model!r} is not supported; "
+                         f"supported: {', '.join(_THERMO_MODELS)}.")
+    if thermo_model == "ideal-gas":
+        basis = "concentration"
+    else:
+        basis = str(phase_node.get("standard-concentration-basis", "unity"))
+        if basis not in _ACTIVITY_BASES:
+            raise InputError(f"standard-concentration-basis = {basis!r}; allowed: {', '.join(_ACTIVITY_BASES)}.")
+
+    species_nodes = []
+    for section, names in _section_names(phase_node.get("species"), "species"):
+        nodes = {node["name"]: node for node in document.get(section) or []}
+        chosen = list(nodes) if names == "all" else list(names)
+        for name in chosen:
+            if name not in nodes:
+                raise InputError(f"species {name!r} of phase {phase_node['name']!r} is not in section {section!r}.")
+            species_nodes.append(nodes[name])
+    species = [str(node["name"]) for node in species_nodes]
+    thermo, volumes = _thermo(path, species_nodes, units, thermo_model)
+    reference_pressure = ONE_ATM
+    for node in species_nodes:
+        if "reference-pressure" in node["thermo"]:
+            reference_pressure = units.convert("reference-pressure", node["thermo"]["reference-pressure"], "pressure")
+
+    reactions = []
+    if phase_node.get("kinetics") is not None:
+        for section, which in _section_names(phase_node.get("reactions"), "reactions"):
+            for node in document.get(section) or []:
+                if which == "declared":
+                    names = parse_equation(str(node["equation"]))
+                    if not set(names.reactants) | set(names.products) <= set(species):
+                        continue
+                reactions.append(_Reaction(_where(path, node), len(reactions), node, species, units,
+                                           basis != "unity"))
+    if thermo_model != "ideal-gas" and any(r.reversible for r in reactions):
+        first = next(r for r in reactions if r.reversible)
+        raise InputError(f"{first.where}: reaction {first.index} ({first.equation}) is reversible in an "
+                         "ideal-condensed phase; write it as two irreversible reactions.")
+    n_s, n_r = len(species), len(reactions)
+    reactant = np.zeros((n_r, n_s))
+    product = np.zeros((n_r, n_s))
+    for i, r in enumerate(reactions):
+        for name, nu in r.reactants.items():
+            reactant[i, species.index(name)] = nu
+        for name, nu in r.products.items():
+            product[i, species.index(name)] = nu
+    reversible = np.array([i for i, r in enumerate(reactions) if r.reversible], np.int32)
+    three = [r for r in reactions if r.kind == "three-body"]
+    fall = [r for r in reactions if r.kind == "falloff"]
+
+    def efficiencies(rows):
+        return jnp.asarray(np.array([[r.efficiencies[s] for s in species] for r in rows]).reshape(len(rows), n_s))
+
+    def column(rows, get):
+        return jnp.asarray(np.array([get(r) for r in rows], dtype=float).reshape(len(rows)))
+
+    return cls(
+        species_names=tuple(species),
+        reaction_equations=tuple(r.equation for r in reactions),
+        thermo_model=thermo_model,
+        activity_basis=basis,
+        reference_pressure=reference_pressure,
+        thermo=thermo,
+        molar_volumes=jnp.asarray(volumes),
+        pre_exponential=column(reactions, lambda r: r.a),
+        net_stoichiometry=jnp.asarray(product - reactant),
+        forward=_orders(species, [r.orders for r in reactions]),
+        reverse=_orders(species, [reactions[i].products for i in reversible]),
+        reversible_index=jnp.asarray(reversible),
+        three_body=ThirdBodies(jnp.asarray(np.array([r.index for r in three], np.int32)), efficiencies(three)),
+        falloff=Falloff(
+            jnp.asarray(np.array([r.index for r in fall], np.int32)),
+            efficiencies(fall),
+            *(column(fall, lambda r, j=j: r.low[j]) for j in range(3)),
+            *(column(fall, lambda r, j=j: r.troe[j]) for j in range(5)),
+        ),
+        parameters=RateParameters(
+            jnp.zeros(n_r),
+            column(reactions, lambda r: r.b),
+            column(reactions, lambda r: r.t_a),
+        ),
+    )
