@@ -96,17 +96,17 @@ class FixedMix(AbstractRebalancing):
     **Arguments:** `weights`, shape (len(ASSETS),), non-negative, summing to 1.
     """
 
-    weights: tuple[float, ...] = eqx.field(static=True)
+    weights: jax.Array
 
     def __init__(self, weights):
         weights = check_range("weights", weights, 0.0, 1.0)
         if weights.shape != (len(ASSETS),) or abs(weights.sum() - 1.0) > 1e-12:
             raise InputError(f"weights = {weights} must have one entry per asset {ASSETS} and "
                              "sum to 1.")
-        self.weights = tuple(map(float, weights))
+        self.weights = jnp.asarray(weights)
 
     def __call__(self, features):
-        return jnp.broadcast_to(jnp.asarray(self.weights), (features.shape[0], len(ASSETS)))
+        return jnp.broadcast_to(self.weights, (features.shape[0], len(ASSETS)))
 
 
 def sixty_forty() -> FixedMix:

@@ -7,6 +7,7 @@ Validation happens in `build_study`, before anything is traced or compiled.
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -124,15 +125,19 @@ def funding_ratio_statistics(funding_ratio) -> dict[str, float]:
                 probability_below_1=float(np.mean(values < 1.0)))
 
 
+@eqx.filter_jit
+def _hard_and_smooth(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, shocks):
+    return (simulate(problem, policy, factors, shocks, smooth_constraints=False),
+            simulate(problem, policy, factors, shocks, smooth_constraints=True))
+
+
 def evaluate(study: Study, policy: AbstractRebalancing, shocks) -> dict:
     """The objective with exact constraints (`objective`), with the smooth surrogates
     (`objective_smooth`) and their `smoothing_gap`, and the funding-ratio statistics (exact).
 
     **Raises:** `FloatingPointError` if any result is not finite.
     """
-    factors = {**study.fixed, **study.reported}
-    hard = simulate(study.problem, policy, factors, shocks, smooth_constraints=False)
-    soft = simulate(study.problem, policy, factors, shocks, smooth_constraints=True)
+    hard, soft = _hard_and_smooth(study.problem, policy, {**study.fixed, **study.reported}, shocks)
     result = dict(objective=float(jnp.mean(hard.utility)),
                   objective_smooth=float(jnp.mean(soft.utility)),
                   funding_ratio=funding_ratio_statistics(hard.funding_ratio),
