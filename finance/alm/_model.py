@@ -57,8 +57,9 @@ class ALMConfig(eqx.Module):
     - `turnover_sharpness`, `floor_sharpness`: sharpness of the smooth |.| and max(., 0) used
       when training [1/unit of weight, 1/unit of funding ratio].
 
-    Neutral values (0 for the first, third and fifth; 0 for `indexation`) make an effect's
-    presence irrelevant; the tests check the full model equals the one without it then.
+    Neutral values make an effect's presence irrelevant (the tests check the full model then
+    equals the one without it): `transaction_cost`, `indexation`, `contribution` or
+    `floor_penalty` at 0; for `credit`, the factors `spread` and `spread_vol` at 0.
     """
 
     transaction_cost: float = eqx.field(static=True, default=0.002)
@@ -164,8 +165,8 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
         month, shock = inputs
         state = carry.market
         funding_ratio = carry.assets / liabilities(month, state)
-        features = jnp.stack([month / horizon * ones, funding_ratio,
-                              zero_rate(state.key_rates, market, MONTH),
+        short_rate = zero_rate(state.key_rates, market, MONTH)
+        features = jnp.stack([month / horizon * ones, funding_ratio, short_rate,
                               state.key_rates[:, -1], state.inflation, state.spread], axis=1)
         weights = policy(features)
         assets = carry.assets
@@ -199,7 +200,7 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
         assets = assets * growth - benefit
         if scene.has("contributions"):
             assets = assets + config.contribution
-        log_bank = carry.log_bank + zero_rate(state.key_rates, market, MONTH) * MONTH
+        log_bank = carry.log_bank + short_rate * MONTH
         return _Carry(after, assets, grown / growth[:, None], log_bank, penalty), None
 
     carry0 = _Carry(start, assets0 * ones, jnp.broadcast_to(held0 / assets0, (n_paths, 6)),
