@@ -2,6 +2,9 @@
 
 from snapo_ode.cli import CommandLine
 
+from .gas_storage._cli import register_gas
+
 
 def register(cli: CommandLine) -> None:
     """Add this domain's verbs, benchmarks and reports to the `snapo` command line."""
+    register_gas(cli)

@@ -24,7 +24,11 @@ from ._policy import (  # noqa: E402
     load_policy as load_policy,
     save_policy as save_policy,
 )
-from ._rollout import DiscreteStepper as DiscreteStepper, rollout as rollout  # noqa: E402
+from ._rollout import (  # noqa: E402
+    DiscreteStepper as DiscreteStepper,
+    RolloutMethod as RolloutMethod,
+    rollout as rollout,
+)
 from ._sensitivity import (  # noqa: E402
     DEFAULT_RELATIVE_STEP as DEFAULT_RELATIVE_STEP,
     Jacobian as Jacobian,

@@ -50,34 +50,46 @@ def rollout(
     *,
     method: RolloutMethod = "scan",
     checkpoints: int | None = None,
+    per_step=None,
 ):
     """Roll a discrete-time model forward `n_steps` steps.
 
     **Arguments:**
-    - `step`: `step(k, state, args) -> state`, with `k` the integer step index (0-based).
+    - `step`: `step(k, state, args) -> state`, with `k` the integer step index (0-based); with
+      `per_step`, `step(k, state, args, data_k)`.
     - `state0`: the initial state, any pytree of arrays.
     - `n_steps`: number of steps (static).
     - `method`: `"scan"` (default, faster) or `"diffrax"` (`DiscreteStepper` under
       `diffeqsolve`, reverse pass by `RecursiveCheckpointAdjoint`).
     - `checkpoints`: Diffrax only: checkpoints of the adjoint (default `n_steps`, which keeps the
       gradient near 2-3x the forward cost; fewer bound memory at more recomputation).
+    - `per_step`: optional pytree of arrays with a leading axis of length `n_steps` (prices,
+      shocks, ...); step k receives slice k. Passing such data here rather than indexing a
+      closed-over array in `step` keeps the reverse pass from accumulating a full-size
+      cotangent at every step.
 
     **Returns:** the states, each leaf with a leading axis of length `n_steps + 1` (state0 first).
     """
     check_choice("method", method, ("scan", "diffrax"))
     if not isinstance(n_steps, int) or n_steps < 1:
         raise InputError(f"n_steps = {n_steps!r} must be a positive integer.")
+    if per_step is None:
+        apply = lambda k, state, data: step(k, state, args)  # noqa: E731
+    else:
+        apply = lambda k, state, data: step(k, state, args, data)  # noqa: E731
     if method == "scan":
 
-        def body(state, k):
-            new = step(k, state, args)
+        def body(state, k_and_data):
+            k, data = k_and_data
+            new = apply(k, state, data)
             return new, new
 
-        _, states = jax.lax.scan(body, state0, jnp.arange(n_steps))
+        _, states = jax.lax.scan(body, state0, (jnp.arange(n_steps), per_step))
     else:
 
         def vector_field(t, state, args):
-            return step(jnp.round(t).astype(int), state, args)
+            k = jnp.round(t).astype(int)
+            return apply(k, state, jax.tree.map(lambda leaf: leaf[k], per_step))
 
         solution = diffrax.diffeqsolve(
             diffrax.ODETerm(vector_field),

@@ -58,41 +58,40 @@ class _Constraints:
         return LinearConstraint(matrix, np.concatenate(self.lower), np.concatenate(self.upper))
 
 
-def _add_ratchet(constraints: _Constraints, table, flow_col, inv_col, max_rate, capacity, next_binary) -> int:
+def _add_ratchet(constraints: _Constraints, table, flow_col, inv_col, max_rate, capacity,
+                 next_extra) -> tuple[int, np.ndarray]:
     """Bound flow_t <= max_rate g(V_t / capacity). Concave g: one row per segment and day.
-    Otherwise a binary per segment and day picks the segment holding V_t (big-M). Returns the
-    number of binaries used, numbered from `next_binary`."""
+    Otherwise the convex-combination (SOS2) formulation: weights lambda over the knots with one
+    binary per segment choosing the two adjacent knots. Returns the number of extra variables
+    (weights, then binaries), numbered from `next_extra`, and the binaries' columns."""
     x, y = table[:, 0], table[:, 1]
-    slopes = np.diff(y) / np.diff(x)
-    n_segments = len(slopes)
-    days = np.arange(constraints.n_days)
+    n_days, n_knots = constraints.n_days, len(x)
+    days = np.arange(n_days)
     flow = (flow_col + days, 1.0)
-    fill_per_unit = 1.0 / capacity
     if is_concave(table):
-        for s in range(n_segments):
+        slopes = np.diff(y) / np.diff(x)
+        for s in range(n_knots - 1):
             # flow - max_rate slope_s V / capacity <= max_rate (y_s - slope_s x_s)
-            constraints.add([flow, (inv_col + days, -max_rate * slopes[s] * fill_per_unit)],
+            constraints.add([flow, (inv_col + days, -max_rate * slopes[s] / capacity)],
                             -np.inf, max_rate * (y[s] - slopes[s] * x[s]))
-        return 0
-    big_m = max_rate * (np.max(np.abs(y)) + np.max(np.abs(slopes)) + 1.0)
-    chosen = [(next_binary + s * constraints.n_days + days) for s in range(n_segments)]
+        return 0, np.zeros(0, dtype=int)
+    weight = [next_extra + i * n_days + days for i in range(n_knots)]
+    chosen = [next_extra + (n_knots + s) * n_days + days for s in range(n_knots - 1)]
+    constraints.add([(w, 1.0) for w in weight], 1.0, 1.0)
     constraints.add([(z, 1.0) for z in chosen], 1.0, 1.0)
-    # sum_s x_s z_s <= V / capacity <= sum_s x_{s+1} z_s
-    constraints.add([(inv_col + days, fill_per_unit)] + [(z, -x[s]) for s, z in enumerate(chosen)], 0.0, np.inf)
-    constraints.add([(inv_col + days, fill_per_unit)] + [(z, -x[s + 1]) for s, z in enumerate(chosen)],
-                    -np.inf, 0.0)
-    for s, z in enumerate(chosen):
-        # flow <= max_rate (y_s + slope_s (V / capacity - x_s)) + M (1 - z_s)
-        constraints.add([flow, (inv_col + days, -max_rate * slopes[s] * fill_per_unit), (z, big_m)],
-                        -np.inf, max_rate * (y[s] - slopes[s] * x[s]) + big_m)
-    return n_segments * constraints.n_days
+    constraints.add([(inv_col + days, 1.0 / capacity)] + [(w, -x[i]) for i, w in enumerate(weight)], 0.0, 0.0)
+    constraints.add([flow] + [(w, -max_rate * y[i]) for i, w in enumerate(weight)], -np.inf, 0.0)
+    for i, w in enumerate(weight):
+        neighbours = [z for s, z in enumerate(chosen) if s in (i - 1, i)]
+        constraints.add([(w, 1.0)] + [(z, -1.0) for z in neighbours], -np.inf, 0.0)
+    return (2 * n_knots - 1) * n_days, np.concatenate(chosen)
 
 
 def solve_intrinsic(inputs: StorageInputs, scene: Scene) -> IntrinsicSolution:
     """The optimal intrinsic schedule and value for the deterministic effects of `scene`.
 
-    Variables: inj_0..inj_{T-1}, wd_0..wd_{T-1}, V_0..V_T (then ratchet binaries for a
-    non-concave table).
+    Variables: inj_0..inj_{T-1}, wd_0..wd_{T-1}, V_0..V_T, then the SOS2 weights and binaries
+    of each non-concave ratchet table.
     """
     f = {name: np.asarray(value, dtype=float) for name, value in vars(inputs).items()}
     n = inputs.n_days
@@ -108,13 +107,14 @@ def solve_intrinsic(inputs: StorageInputs, scene: Scene) -> IntrinsicSolution:
     constraints = _Constraints(n)
     # V_{t+1} - V_t - kept inj_t + wd_t = 0
     constraints.add([(inv + days + 1, 1.0), (inv + days, -1.0), (inj + days, -kept), (wd + days, 1.0)], 0.0, 0.0)
-    n_binaries = 0
+    n_vars, binaries = n_continuous, []
     if scene.has("ratchets"):
         for table, col, max_rate in ((f["injection_ratchet"], inj, f["max_injection"]),
                                      (f["withdrawal_ratchet"], wd, f["max_withdrawal"])):
-            n_binaries += _add_ratchet(constraints, table, col, inv, float(max_rate), float(f["capacity"]),
-                                       n_continuous + n_binaries)
-    n_vars = n_continuous + n_binaries
+            extra, columns = _add_ratchet(constraints, table, col, inv, float(max_rate), float(f["capacity"]), n_vars)
+            n_vars += extra
+            binaries.append(columns)
+    binaries = np.concatenate(binaries) if binaries else np.zeros(0, dtype=int)
 
     low = np.zeros(n_vars)
     high = np.full(n_vars, np.inf)
@@ -123,15 +123,15 @@ def solve_intrinsic(inputs: StorageInputs, scene: Scene) -> IntrinsicSolution:
     high[inv:inv + n + 1] = f["capacity"]
     low[inv] = high[inv] = f["initial_inventory"]
     low[inv + n] = f["terminal_inventory_min"]
-    high[n_continuous:] = 1.0
+    high[n_continuous:] = 1.0  # SOS2 weights and segment binaries
     cost = np.zeros(n_vars)
     cost[inj:inj + n] = discount * (price + cost_in)
     cost[wd:wd + n] = -discount * (price - cost_out)
     integrality = np.zeros(n_vars)
-    integrality[n_continuous:] = 1
+    integrality[binaries] = 1
     result = milp(cost, constraints=constraints.build(n_vars),
                   bounds=Bounds(low, high), integrality=integrality,
-                  options={"mip_rel_gap": 1e-9, "presolve": True})
+                  options={"mip_rel_gap": 1e-6, "presolve": True})
     if result.status != 0 or result.x is None:
         raise RuntimeError(f"the intrinsic LP failed: {result.message}")
     x = result.x
@@ -142,5 +142,5 @@ def solve_intrinsic(inputs: StorageInputs, scene: Scene) -> IntrinsicSolution:
         withdrawal=withdrawal,
         inventory=x[inv:inv + n + 1],
         deltas=discount * (withdrawal - injection),
-        method="MILP" if n_binaries else "LP",
+        method="MILP" if binaries.size else "LP",
     )

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from snapo_ode import EffectCatalogue, MLPPolicy, Scene, rollout, smooth
+from snapo_ode import EffectCatalogue, MLPPolicy, RolloutMethod, Scene, rollout, smooth
 
 from ._inputs import DAYS_PER_YEAR, StorageInputs
 
@@ -93,39 +93,52 @@ def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None
     return jnp.concatenate([floors[::-1], inputs.terminal_inventory_min[None]])
 
 
-def policy_features(day, fill, log_spot_ratio, n_days: int, scene: Scene):
-    """Normalised features: day (linear and two seasonal harmonics), fill fraction, and in
-    stochastic mode the spot/forward log-ratio. None of them depends on the forward curve."""
-    phase = 2 * jnp.pi * day / n_days
-    features = [day / n_days, fill, jnp.sin(phase), jnp.cos(phase), jnp.sin(2 * phase), jnp.cos(2 * phase)]
+HARMONICS = 24  # seasonal harmonics of the day: periods down to about two weeks on a 365-day year
+
+
+def policy_features(day, fill, headroom, log_spot_ratio, price, n_days: int, scene: Scene):
+    """Features: the day (linear, and sine/cosine of `HARMONICS` harmonics of the horizon, so
+    that schedules with monthly or fortnightly swings can be represented), the fill fraction,
+    and the headroom (inventory above tomorrow's floor as a fraction of capacity: what may still
+    be withdrawn without missing the terminal requirement). In stochastic mode also the
+    spot/forward log-ratio and the log spot price, since a desk's decision depends on the price
+    level (as least-squares Monte Carlo regresses on spot). The deterministic policy sees day
+    and inventory only, so its schedule does not depend on the forward curve."""
+    phases = 2 * jnp.pi * day / n_days * jnp.arange(1, HARMONICS + 1)
+    features = [jnp.stack([day / n_days, fill, headroom]), jnp.sin(phases), jnp.cos(phases)]
     if scene.has("stochastic_spot"):
-        features.append(log_spot_ratio)
-    return jnp.stack(features)
+        features.append(jnp.stack([log_spot_ratio, jnp.log(price)]))
+    return jnp.concatenate(features)
 
 
-def n_features(scene: Scene) -> int:
-    return 7 if scene.has("stochastic_spot") else 6
-
-
-def make_policy(scene: Scene, *, key, width: int = 32, depth: int = 2, spot_scale: float = 1.0) -> MLPPolicy:
-    """A policy with actions in [-1, 1] (withdraw all ... inject all); `spot_scale` normalises the
-    spot/forward log-ratio feature (its stationary standard deviation)."""
-    count = n_features(scene)
-    scale = jnp.ones(count).at[6].set(spot_scale) if count == 7 else None
-    return MLPPolicy(count, 1, key=key, width=width, depth=depth, feature_scale=scale,
-                     action_low=-1.0, action_high=1.0)
+def make_policy(scene: Scene, inputs: StorageInputs, *, key, width: int = 32, depth: int = 2,
+                spot_scale: float = 1.0) -> MLPPolicy:
+    """A policy with actions in [-1, 1] (withdraw all ... inject all). In stochastic mode the
+    spot features are normalised by `spot_scale` (the factor's stationary standard deviation)
+    around the training curve's mean log price (fixed at creation, not traced)."""
+    n_day_features = 3 + 2 * HARMONICS
+    if not scene.has("stochastic_spot"):
+        return MLPPolicy(n_day_features, 1, key=key, width=width, depth=depth, action_low=-1.0, action_high=1.0)
+    mean_log_price = float(jnp.mean(jnp.log(inputs.forward_curve)))
+    offset = jnp.zeros(n_day_features + 2).at[-1].set(mean_log_price)
+    scale = jnp.ones(n_day_features + 2).at[-2:].set(spot_scale)
+    return MLPPolicy(n_day_features + 2, 1, key=key, width=width, depth=depth, feature_offset=offset,
+                     feature_scale=scale, action_low=-1.0, action_high=1.0)
 
 
 def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices: jax.Array,
-                  log_spot_ratio: jax.Array, *, sharpness: float | None) -> Schedule:
-    """Run the policy over one price path. `prices` and `log_spot_ratio`: shape (T,)."""
+                  log_spot_ratio: jax.Array, *, sharpness: float | None,
+                  method: RolloutMethod = "scan") -> Schedule:
+    """Run the policy over one price path. `prices` and `log_spot_ratio`: shape (T,);
+    `method`: the `snapo_ode.rollout` method."""
     n_days = inputs.n_days
     kept = kept_fraction(inputs, scene)
     flow_k = _flow_sharpness(inputs, sharpness)
     floor = inventory_floor(inputs, scene, sharpness)
     daily_rate = inputs.rate / DAYS_PER_YEAR
 
-    def step(day, state, _):
+    def step(day, state, _, today):
+        price, spot_ratio, floor_tomorrow = today
         inventory, value, _, _ = state
         fill = inventory / inputs.capacity
         room = (inputs.capacity - inventory) / kept
@@ -135,13 +148,13 @@ def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices
             inputs.max_withdrawal * rate_fraction(inputs.withdrawal_ratchet, fill, scene, sharpness),
             inventory, flow_k)
         upper = kept * max_in
-        lower = smooth.minimum(smooth.maximum(-max_out, floor[day + 1] - inventory, flow_k), upper, flow_k)
-        action = policy(policy_features(day, fill, log_spot_ratio[day], n_days, scene))[0]
+        lower = smooth.minimum(smooth.maximum(-max_out, floor_tomorrow - inventory, flow_k), upper, flow_k)
+        headroom = (inventory - floor_tomorrow) / inputs.capacity
+        action = policy(policy_features(day, fill, headroom, spot_ratio, price, n_days, scene))[0]
         request = smooth.relu(action, sharpness) * upper - smooth.relu(-action, sharpness) * max_out
         net = smooth.clip(request, lower, upper, flow_k)
         injection = smooth.relu(net, flow_k) / kept
         withdrawal = smooth.relu(-net, flow_k)
-        price = prices[day]
         if scene.has("costs"):
             cash = -(price + inputs.injection_cost) * injection + (price - inputs.withdrawal_cost) * withdrawal
         else:
@@ -151,7 +164,8 @@ def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices
         return inventory + kept * injection - withdrawal, value + cash, injection, withdrawal
 
     zero = jnp.zeros_like(inputs.capacity)
-    states = rollout(step, (inputs.initial_inventory, zero, zero, zero), n_days)
+    states = rollout(step, (inputs.initial_inventory, zero, zero, zero), n_days, method=method,
+                     per_step=(prices, log_spot_ratio, floor[1:]))
     inventory, value, injection, withdrawal = states
     return Schedule(value[-1], injection[1:], withdrawal[1:], inventory)
 

@@ -1,0 +1,113 @@
+"""`snapo gas`, `snapo demo` and `snapo bench gas`."""
+
+import argparse
+import pathlib
+
+DEFAULT_OUT = pathlib.Path("snapo-out")
+
+
+def add_study_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--curve", type=pathlib.Path, help="forward curve CSV with header day,price "
+                        "[$/MMBtu] (default: the built-in 365-day sample)")
+    parser.add_argument("--facility", type=pathlib.Path, help="facility JSON (default: the built-in sample)")
+    parser.add_argument("--stochastic", action="store_true", help="trade on simulated spot paths")
+    parser.add_argument("--volatility", type=float, default=0.5, help="OU factor volatility [1/sqrt(year)]")
+    parser.add_argument("--mean-reversion", type=float, default=2.0, help="OU mean reversion [1/year]")
+    parser.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths (stochastic mode)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--train-steps", type=int, default=1500)
+    parser.add_argument("--sharpness", type=float, default=200.0,
+                        help="smoothing sharpness (gap about log(2)/sharpness of a day's maximum flow)")
+    parser.add_argument("--bump", action="store_true", help="also run central bump-and-revalue of the deltas")
+
+
+def study_from_args(args):
+    """Build the inputs and settings from parsed arguments (validated before any compile)."""
+    from .. import gas_storage as gs
+    from ._study import StudySettings
+
+    facility = gs.load_facility(args.facility) if args.facility else gs.sample_facility()
+    curve = gs.load_curve(args.curve) if args.curve else gs.sample_curve()
+    volatility = args.volatility if args.stochastic else 0.0
+    mean_reversion = args.mean_reversion if args.stochastic else 0.0
+    inputs = gs.make_inputs(facility, curve, volatility=volatility, mean_reversion=mean_reversion)
+    settings = StudySettings(stochastic=args.stochastic, paths=args.paths, seed=args.seed,
+                             train_steps=args.train_steps, sharpness=args.sharpness, bump=args.bump)
+    return inputs, settings
+
+
+def summary_table(result: dict) -> str:
+    """A short readable summary of a study's result."""
+    lines = [
+        f"gas storage, {result['mode']} ({len(result['deltas'])} days)",
+        f"  intrinsic value (exact {result['intrinsic_method']})   {result['intrinsic_lp']:>16,.0f} $",
+        f"  policy value, hard constraints      {result['value_hard']:>16,.0f} $"
+        f"   ({100 * result['hard_to_lp_ratio']:.2f}% of intrinsic)",
+        f"  policy value, smooth (training)     {result['value_smooth']:>16,.0f} $"
+        f"   (smooth - hard: {result['smoothing_gap']:,.0f} $)",
+        f"  worst hard-constraint violation     {result['max_constraint_violation']:>16.2e} MMBtu",
+        f"  training: {result['train_steps']} steps in {result['train_seconds']:.1f} s after "
+        f"{result['compile_seconds']:.1f} s compile",
+        f"  {len(result['deltas'])} forward-curve deltas + {len(result['parameter_sensitivities'])} parameter "
+        f"sensitivities from one reverse pass: {1e3 * result['gradient_seconds']:.2f} ms "
+        f"({result['gradient_forward_ratio']:.2f}x the forward pass)",
+    ]
+    if "value_hard_se" in result:
+        lines.insert(3, f"  standard error (out of sample)      {result['value_hard_se']:>16,.0f} $")
+    if "bump_seconds" in result:
+        lines.append(
+            f"  central bump-and-revalue: batched {1e3 * result['bump_batched_seconds']:.1f} ms, sequential "
+            f"{1e3 * result['bump_sequential_seconds']:.0f} ms; max relative difference {result['max_rel_diff']:.1e}"
+        )
+    return "\n".join(lines)
+
+
+def run_gas(args) -> int:
+    from snapo_ode import atomic_write_json
+
+    from ._study import run_study
+
+    inputs, settings = study_from_args(args)
+    result = run_study(inputs, settings)
+    atomic_write_json(args.json, result)
+    print(summary_table(result))
+    print(f"  written: {args.json}")
+    return 0
+
+
+def run_demo(args) -> int:
+    from snapo_ode import atomic_write_json
+
+    from .. import gas_storage as gs
+    from ._study import StudySettings, run_study
+
+    inputs = gs.make_inputs(gs.sample_facility(), gs.sample_curve())
+    result = run_study(inputs, StudySettings(bump=True))
+    path = args.out / "gas.json"
+    atomic_write_json(path, result)
+    print(summary_table(result))
+    print(f"  written: {path}")
+    return 0
+
+
+def run_bench(args) -> int:
+    from ._bench import run_gas_benchmark
+
+    return run_gas_benchmark(args.out, paths=args.paths, repeats=args.repeats)
+
+
+def register_gas(cli) -> None:
+    """Add `snapo gas`, `snapo demo` and `snapo bench gas`."""
+    gas = cli.command("gas", "train a storage policy, value it hard and smooth against the intrinsic LP, "
+                      "and take every forward-curve delta from one reverse pass")
+    add_study_arguments(gas)
+    gas.add_argument("--json", type=pathlib.Path, default=DEFAULT_OUT / "gas.json", help="output JSON path")
+    gas.set_defaults(handler=run_gas)
+    demo = cli.command("demo", "the gas-storage study on the built-in sample facility and curve")
+    demo.add_argument("--out", type=pathlib.Path, default=DEFAULT_OUT)
+    demo.set_defaults(handler=run_demo)
+    bench = cli.bench("gas", "training time, gradient/forward ratio, adjoint vs bump-and-revalue, scan vs Diffrax")
+    bench.add_argument("--out", type=pathlib.Path, default=DEFAULT_OUT)
+    bench.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths of the stochastic case")
+    bench.add_argument("--repeats", type=int, default=5)
+    bench.set_defaults(handler=run_bench)

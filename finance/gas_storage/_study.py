@@ -1,0 +1,208 @@
+"""One storage study end to end: train the policy smooth, evaluate it hard, solve the LP,
+and take every sensitivity from one reverse pass (optionally against bump-and-revalue)."""
+
+import time
+from dataclasses import dataclass
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import snapo_ode
+from snapo_ode import InputError, time_function
+
+from ._inputs import StorageInputs
+from ._lp import solve_intrinsic
+from ._model import deterministic_scene, expected_value, make_policy, simulate, stochastic_scene
+
+
+@dataclass(frozen=True)
+class StudySettings:
+    """**Fields:** `stochastic` (trade on simulated spot paths); `paths` (Monte Carlo paths of
+    the evaluation, drawn fresh, common to the value, the adjoint and the bumps);
+    `train_paths` (paths drawn anew at every training step); `seed`; `train_steps`; `learning_rate`;
+    `sharpness` (dimensionless smoothing sharpness; gaps are about log(2)/sharpness of a day's
+    maximum flow); `bump` (also run central bump-and-revalue on the 365 deltas); `repeats`
+    (timed runs per median); `progress` (show a progress bar)."""
+
+    stochastic: bool = False
+    paths: int = 1000
+    train_paths: int = 256
+    seed: int = 0
+    train_steps: int = 1500
+    learning_rate: float = 1e-2
+    sharpness: float = 200.0
+    bump: bool = False
+    repeats: int = 5
+    progress: bool = True
+
+    def __post_init__(self):
+        snapo_ode.check_range("paths", self.paths, 2, 10_000_000)
+        snapo_ode.check_range("train_paths", self.train_paths, 1, 10_000_000)
+        snapo_ode.check_range("train_steps", self.train_steps, 1, 10_000_000)
+        snapo_ode.check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
+        snapo_ode.check_range("sharpness", self.sharpness, 0.0, 1e8, low_open=True)
+        if self.repeats < 1:
+            raise InputError(f"repeats = {self.repeats!r} must be at least 1.")
+
+
+def constraint_violation(schedule, inputs: StorageInputs, kept: float) -> float:
+    """The largest violation of any hard constraint by a schedule, in MMBtu (0 if none)."""
+    inventory = np.asarray(schedule.inventory)
+    injection, withdrawal = np.asarray(schedule.injection), np.asarray(schedule.withdrawal)
+    capacity = float(inputs.capacity)
+    fill = inventory[..., :-1] / capacity
+    max_in = float(inputs.max_injection) * np.interp(fill, *np.asarray(inputs.injection_ratchet).T)
+    max_out = float(inputs.max_withdrawal) * np.interp(fill, *np.asarray(inputs.withdrawal_ratchet).T)
+    balance = inventory[..., 1:] - inventory[..., :-1] - kept * injection + withdrawal
+    violations = [
+        -inventory, inventory - capacity, -injection, -withdrawal,
+        injection - max_in, withdrawal - max_out, np.abs(balance),
+        float(inputs.terminal_inventory_min) - inventory[..., -1:],
+    ]
+    return max(0.0, max(float(np.max(v)) for v in violations))
+
+
+def _standard_error(values) -> float:
+    values = np.asarray(values)
+    return float(np.std(values, ddof=1) / np.sqrt(values.size)) if values.size > 1 else 0.0
+
+
+def named_sensitivities(gradient: StorageInputs) -> dict[str, float]:
+    """d value / d every scalar input by name (ratchet entries as `table[row][col]`), the
+    forward curve left out (it is reported as `deltas`)."""
+    named = {}
+    for field, value in vars(gradient).items():
+        if field == "forward_curve" or value is None:
+            continue
+        array = np.asarray(value)
+        if array.ndim == 0:
+            named[field] = float(array)
+        else:
+            for (i, j), entry in np.ndenumerate(array):
+                named[f"{field}[{i}][{j}]"] = float(entry)
+    return named
+
+
+def run_study(inputs: StorageInputs, settings: StudySettings) -> dict:
+    """Train, evaluate, compare with the LP, and compute sensitivities. Returns the JSON-ready
+    result (see the `snapo gas` documentation for the keys)."""
+    scene = stochastic_scene() if settings.stochastic else deterministic_scene()
+    key = jax.random.key(settings.seed)
+    policy_key, train_key, eval_key = jax.random.split(key, 3)
+    eval_shocks = None
+    spot_scale = 1.0
+    if settings.stochastic:
+        eval_shocks = jax.random.normal(eval_key, (settings.paths, inputs.n_days))
+        kappa = max(float(inputs.mean_reversion), 1e-6)
+        spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
+    policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale)
+    scale = float(inputs.capacity * jnp.mean(inputs.forward_curve))
+    sharpness = settings.sharpness
+
+    def loss(policy, *step_key):
+        shocks = None
+        if settings.stochastic:
+            shocks = jax.random.normal(step_key[0], (settings.train_paths, inputs.n_days))
+        value = expected_value(policy, inputs, scene, sharpness=sharpness, shocks=shocks)
+        return -value / scale, {"value": value}
+
+    start = time.perf_counter()
+    trained = snapo_ode.train(loss, policy, steps=settings.train_steps, learning_rate=settings.learning_rate,
+                              key=train_key if settings.stochastic else None,
+                              progress=settings.progress, description="training storage policy")
+    train_wall = time.perf_counter() - start
+    policy = trained.params
+
+    @eqx.filter_jit
+    def evaluate(policy, inputs, sharpness_is_hard: bool):
+        return simulate(policy, inputs, scene, sharpness=None if sharpness_is_hard else sharpness,
+                        shocks=eval_shocks)
+
+    smooth_run = evaluate(policy, inputs, False)
+    hard_run = evaluate(policy, inputs, True)
+    kept = 1.0 - float(inputs.fuel_loss)
+    intrinsic = solve_intrinsic(inputs, deterministic_scene())
+
+    @eqx.filter_jit
+    def smooth_value(policy, inputs):
+        return expected_value(policy, inputs, scene, sharpness=sharpness, shocks=eval_shocks)
+
+    @eqx.filter_jit
+    def value_and_gradient(policy, inputs):
+        return snapo_ode.value_and_sensitivities(lambda both: smooth_value(*both), (policy, inputs))
+
+    forward_timing, _ = time_function(smooth_value, policy, inputs, repeats=settings.repeats)
+    gradient_timing, (value, (_, gradient)) = time_function(value_and_gradient, policy, inputs,
+                                                            repeats=settings.repeats)
+    deltas = np.asarray(gradient.forward_curve)
+    result = {
+        "mode": "stochastic" if settings.stochastic else "deterministic",
+        "scene": sorted(scene.active),
+        "value_hard": float(np.mean(hard_run.value)),
+        "value_smooth": float(value),
+        "smoothing_gap": float(value) - float(np.mean(hard_run.value)),
+        "intrinsic_lp": intrinsic.value,
+        "intrinsic_method": intrinsic.method,
+        "hard_to_lp_ratio": float(np.mean(hard_run.value)) / intrinsic.value if intrinsic.value else float("nan"),
+        "max_constraint_violation": constraint_violation(hard_run, inputs, kept),
+        "capacity": float(inputs.capacity),
+        "schedule": {
+            "injection": np.asarray(hard_run.injection).reshape(-1, inputs.n_days).mean(0).tolist(),
+            "withdrawal": np.asarray(hard_run.withdrawal).reshape(-1, inputs.n_days).mean(0).tolist(),
+            "inventory": np.asarray(hard_run.inventory).reshape(-1, inputs.n_days + 1).mean(0).tolist(),
+        },
+        "deltas": deltas.tolist(),
+        "lp_envelope_deltas": intrinsic.deltas.tolist(),
+        "parameter_sensitivities": named_sensitivities(gradient),
+        "train_seconds": trained.seconds,
+        "train_wall_seconds": train_wall,
+        "train_steps": trained.steps_run,
+        "compile_seconds": trained.compile_seconds + forward_timing.compile_seconds + gradient_timing.compile_seconds,
+        "compile_breakdown": {
+            "train_step": trained.compile_seconds,
+            "forward": forward_timing.compile_seconds,
+            "gradient": gradient_timing.compile_seconds,
+        },
+        "forward_seconds": forward_timing.median_seconds,
+        "gradient_seconds": gradient_timing.median_seconds,
+        "gradient_forward_ratio": gradient_timing.median_seconds / forward_timing.median_seconds,
+        "training_history": {"loss": trained.history["loss"], "value": trained.history["value"]},
+    }
+    if settings.stochastic:
+        result.update(paths=settings.paths, train_paths=settings.train_paths, seed=settings.seed,
+                      value_hard_se=_standard_error(hard_run.value),
+                      value_smooth_se=_standard_error(smooth_run.value),
+                      evaluation="out of sample: fresh paths, not those trained on",
+                      schedule_note="schedule entries are means over the evaluation paths")
+    if settings.bump:
+        result.update(bump_comparison(smooth_value, policy, inputs, deltas, repeats=settings.repeats,
+                                      paths=settings.paths if settings.stochastic else 1))
+    return result
+
+
+def bump_comparison(smooth_value, policy, inputs: StorageInputs, deltas: np.ndarray, *, repeats: int,
+                    paths: int, relative_step: float = snapo_ode.DEFAULT_RELATIVE_STEP) -> dict:
+    """Central bump-and-revalue of the smooth value on every day's forward price, batched
+    (vmapped, in chunks of about 65,536 simulated paths to stay in memory) and sequential (a
+    Python loop of jitted revaluations, timed as 2T times the median revaluation), against the
+    adjoint deltas."""
+    batch_size = max(1, 65_536 // paths)
+    batch_size = batch_size if batch_size < 2 * deltas.size else None
+
+    def value_of_curve(curve):
+        return smooth_value(policy, eqx.tree_at(lambda i: i.forward_curve, inputs, curve))
+
+    batched = jax.jit(lambda curve: snapo_ode.bump_and_revalue(value_of_curve, curve, relative_step=relative_step,
+                                                               batch_size=batch_size))
+    batched_timing, bumped = time_function(batched, inputs.forward_curve, repeats=1)
+    single_timing, _ = time_function(jax.jit(value_of_curve), inputs.forward_curve, repeats=repeats)
+    sequential = 2 * deltas.size * single_timing.median_seconds
+    return {
+        "bump_batched_seconds": batched_timing.median_seconds,
+        "bump_sequential_seconds": sequential,
+        "bump_seconds": min(batched_timing.median_seconds, sequential),
+        "bump_compile_seconds": batched_timing.compile_seconds,
+        "max_rel_diff": snapo_ode.max_relative_difference(deltas, np.asarray(bumped)),
+    }
