@@ -162,7 +162,8 @@ def max_relative_difference(estimate, reference, *, floor: float = 1e-8) -> floa
     """max |estimate - reference| / max(|reference|, floor * max|reference|) over all leaves.
 
     The floor keeps entries that are zero up to round-off from dominating: an entry a
-    hundred-millionth of the largest counts at that scale.
+    hundred-millionth of the largest (by default) is compared at that scale. `floor=1` gives the
+    normwise figure max |estimate - reference| / max |reference|.
     """
     a = np.concatenate([np.ravel(x) for x in jax.tree.leaves(estimate)])
     b = np.concatenate([np.ravel(x) for x in jax.tree.leaves(reference)])

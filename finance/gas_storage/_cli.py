@@ -63,30 +63,33 @@ def summary_table(result: dict) -> str:
 
 
 def run_gas(args) -> int:
-    from snapo_ode import atomic_write_json
+    from snapo_ode import atomic_write_json, save_policy
 
     from ._study import run_study
 
     inputs, settings = study_from_args(args)
-    result = run_study(inputs, settings)
+    result, policy = run_study(inputs, settings)
+    policy_path = args.json.with_suffix(".policy.eqx")
+    save_policy(policy_path, policy)
     atomic_write_json(args.json, result)
     print(summary_table(result))
-    print(f"  written: {args.json}")
+    print(f"  written: {args.json}, {policy_path}")
     return 0
 
 
 def run_demo(args) -> int:
-    from snapo_ode import atomic_write_json
+    from snapo_ode import atomic_write_json, save_policy
 
     from .. import gas_storage as gs
     from ._study import StudySettings, run_study
 
     inputs = gs.make_inputs(gs.sample_facility(), gs.sample_curve())
-    result = run_study(inputs, StudySettings(bump=True))
+    result, policy = run_study(inputs, StudySettings(bump=True))
     path = args.out / "gas.json"
+    save_policy(args.out / "gas.policy.eqx", policy)
     atomic_write_json(path, result)
     print(summary_table(result))
-    print(f"  written: {path}")
+    print(f"  written: {path}, {args.out / 'gas.policy.eqx'}")
     return 0
 
 
