@@ -2,9 +2,11 @@
 
 from snapo_ode.cli import CommandLine
 
+from ._alm_cli import register_alm
 from .gas_storage._cli import register_gas
 
 
 def register(cli: CommandLine) -> None:
     """Add this domain's verbs, benchmarks and reports to the `snapo` command line."""
     register_gas(cli)
+    register_alm(cli)
