@@ -96,16 +96,23 @@ def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None
 HARMONICS = 24  # seasonal harmonics of the day: periods down to about two weeks on a 365-day year
 
 
-def policy_features(day, fill, headroom, log_spot_ratio, price, n_days: int, scene: Scene):
-    """Features: the day (linear, and sine/cosine of `HARMONICS` harmonics of the horizon, so
-    that schedules with monthly or fortnightly swings can be represented), the fill fraction,
-    and the headroom (inventory above tomorrow's floor as a fraction of capacity: what may still
-    be withdrawn without missing the terminal requirement). In stochastic mode also the
-    spot/forward log-ratio and the log spot price, since a desk's decision depends on the price
-    level (as least-squares Monte Carlo regresses on spot). The deterministic policy sees day
-    and inventory only, so its schedule does not depend on the forward curve."""
-    phases = 2 * jnp.pi * day / n_days * jnp.arange(1, HARMONICS + 1)
-    features = [jnp.stack([day / n_days, fill, headroom]), jnp.sin(phases), jnp.cos(phases)]
+def calendar_features(n_days: int) -> jax.Array:
+    """Features of the day alone, shape (T, 1 + 2 HARMONICS): the day as a fraction of the
+    horizon and the sine and cosine of `HARMONICS` harmonics, so that schedules with monthly or
+    fortnightly swings can be represented. Computed once, outside the daily loop."""
+    day = jnp.arange(n_days)
+    phases = 2 * jnp.pi * day[:, None] / n_days * jnp.arange(1, HARMONICS + 1)
+    return jnp.concatenate([(day / n_days)[:, None], jnp.sin(phases), jnp.cos(phases)], axis=1)
+
+
+def policy_features(calendar, fill, headroom, log_spot_ratio, price, scene: Scene):
+    """The day's `calendar_features`, the fill fraction and the headroom (inventory above
+    tomorrow's floor as a fraction of capacity: what may still be withdrawn without missing the
+    terminal requirement). In stochastic mode also the spot/forward log-ratio and the log spot
+    price, since a desk's decision depends on the price level (as least-squares Monte Carlo
+    regresses on spot). The deterministic policy sees day and inventory only, so its schedule
+    does not depend on the forward curve."""
+    features = [calendar, jnp.stack([fill, headroom])]
     if scene.has("stochastic_spot"):
         features.append(jnp.stack([log_spot_ratio, jnp.log(price)]))
     return jnp.concatenate(features)
@@ -138,7 +145,7 @@ def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices
     daily_rate = inputs.rate / DAYS_PER_YEAR
 
     def step(day, state, _, today):
-        price, spot_ratio, floor_tomorrow = today
+        price, spot_ratio, floor_tomorrow, calendar = today
         inventory, value, _, _ = state
         fill = inventory / inputs.capacity
         room = (inputs.capacity - inventory) / kept
@@ -150,7 +157,7 @@ def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices
         upper = kept * max_in
         lower = smooth.minimum(smooth.maximum(-max_out, floor_tomorrow - inventory, flow_k), upper, flow_k)
         headroom = (inventory - floor_tomorrow) / inputs.capacity
-        action = policy(policy_features(day, fill, headroom, spot_ratio, price, n_days, scene))[0]
+        action = policy(policy_features(calendar, fill, headroom, spot_ratio, price, scene))[0]
         request = smooth.relu(action, sharpness) * upper - smooth.relu(-action, sharpness) * max_out
         net = smooth.clip(request, lower, upper, flow_k)
         injection = smooth.relu(net, flow_k) / kept
@@ -165,7 +172,7 @@ def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices
 
     zero = jnp.zeros_like(inputs.capacity)
     states = rollout(step, (inputs.initial_inventory, zero, zero, zero), n_days, method=method,
-                     per_step=(prices, log_spot_ratio, floor[1:]))
+                     per_step=(prices, log_spot_ratio, floor[1:], calendar_features(n_days)))
     inventory, value, injection, withdrawal = states
     return Schedule(value[-1], injection[1:], withdrawal[1:], inventory)
 
