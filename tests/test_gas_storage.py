@@ -89,7 +89,7 @@ def test_every_adjoint_sensitivity_equals_central_bumps(trained_deterministic):
     # The value is linear in the forward curve at a fixed policy, so a wide step is exact.
     bumped_curve = snapo_ode.bump_and_revalue(value, inputs, select=lambda i: i.forward_curve, relative_step=1e-2)
     assert snapo_ode.max_relative_difference(adjoint.forward_curve, bumped_curve) <= 1e-6
-    bumped = snapo_ode.bump_and_revalue(value, inputs, relative_step=1e-5)
+    bumped = snapo_ode.bump_and_revalue(value, inputs, relative_step=1e-6)
     for field in ("capacity", "initial_inventory", "terminal_inventory_min", "max_injection", "max_withdrawal",
                   "fuel_loss", "injection_cost", "withdrawal_cost", "rate", "injection_ratchet",
                   "withdrawal_ratchet"):
