@@ -51,6 +51,7 @@ def rollout(
     method: RolloutMethod = "scan",
     checkpoints: int | None = None,
     per_step=None,
+    remat: bool = False,
 ):
     """Roll a discrete-time model forward `n_steps` steps.
 
@@ -67,6 +68,10 @@ def rollout(
       shocks, ...); step k receives slice k. Passing such data here rather than indexing a
       closed-over array in `step` keeps the reverse pass from accumulating a full-size
       cotangent at every step.
+    - `remat`: scan only: recompute each step's intermediates in the reverse pass
+      (`jax.checkpoint` on the step) instead of storing them. Worth it when a step is wide
+      (many Monte Carlo paths): storing per-path activations for every step makes the reverse
+      pass memory-bound.
 
     **Returns:** the states, each leaf with a leading axis of length `n_steps + 1` (state0 first).
     """
@@ -84,7 +89,8 @@ def rollout(
             new = apply(k, state, data)
             return new, new
 
-        _, states = jax.lax.scan(body, state0, (jnp.arange(n_steps), per_step))
+        _, states = jax.lax.scan(jax.checkpoint(body) if remat else body, state0,
+                                 (jnp.arange(n_steps), per_step))
     else:
 
         def vector_field(t, state, args):

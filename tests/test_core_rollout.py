@@ -62,3 +62,14 @@ def test_rejects_bad_arguments():
         rollout(lambda k, x, a: x, jnp.array(0.0), 3, method="euler")
     with pytest.raises(snapo_ode.InputError, match="n_steps"):
         rollout(lambda k, x, a: x, jnp.array(0.0), 0)
+
+
+def test_remat_gives_identical_values_and_gradients(problem):
+    def cost(args, remat):
+        _, costs = rollout(controlled_step, (jnp.array(0.3), jnp.array(0.0)), 50, args, remat=remat)
+        return costs[-1]
+
+    plain, rematerialised = (eqx.filter_value_and_grad(lambda a, r=r: cost(a, r))(problem) for r in (False, True))
+    np.testing.assert_allclose(plain[0], rematerialised[0], rtol=1e-15)
+    for a, b in zip(jax.tree.leaves(plain[1]), jax.tree.leaves(rematerialised[1])):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
