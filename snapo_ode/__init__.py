@@ -31,9 +31,11 @@ from ._rollout import (  # noqa: E402
 )
 from ._sensitivity import (  # noqa: E402
     DEFAULT_RELATIVE_STEP as DEFAULT_RELATIVE_STEP,
+    BumpComparison as BumpComparison,
     Jacobian as Jacobian,
     bump_and_revalue as bump_and_revalue,
     choose_mode as choose_mode,
+    compare_with_bumps as compare_with_bumps,
     flatten_inputs as flatten_inputs,
     jacobian as jacobian,
     max_relative_difference as max_relative_difference,

@@ -5,6 +5,7 @@ Inputs are any pytree (an `equinox.Module` policy, a dict of model inputs, or bo
 the differentiable part is every inexact array leaf, as in `equinox.filter_grad`.
 """
 
+import time
 from collections.abc import Callable
 from typing import Literal, NamedTuple
 
@@ -170,3 +171,66 @@ def max_relative_difference(estimate, reference, *, floor: float = 1e-8) -> floa
     scale = np.maximum(np.abs(b), floor * np.max(np.abs(b), initial=0.0))
     scale = np.where(scale == 0, 1.0, scale)
     return float(np.max(np.abs(a - b) / scale, initial=0.0))
+
+
+class BumpComparison(NamedTuple):
+    """The adjoint gradient next to central bump-and-revalue of the same function, timed side
+    by side in one run (medians after warm-up; compile times apart)."""
+
+    value: float
+    adjoint: object
+    bumped: object
+    max_rel_diff: float
+    adjoint_seconds: float
+    bump_seconds: float
+    speedup: float
+    adjoint_compile_seconds: float
+    bump_compile_seconds: float
+
+
+def compare_with_bumps(
+    fn: Callable,
+    inputs,
+    *args,
+    select: Callable | None = None,
+    batched: bool = True,
+    batch_size: int | None = None,
+    relative_step: float = DEFAULT_RELATIVE_STEP,
+    floor: float = 1e-8,
+    repeats: int = 3,
+) -> BumpComparison:
+    """Gradient of scalar `fn(inputs, *args)` by one reverse pass and by central bumps (with
+    respect to `select(inputs)` when given, else every inexact leaf), their
+    `max_relative_difference` and the time ratio `speedup = bump_seconds / adjoint_seconds`."""
+    from ._timing import time_function
+
+    if select is None:
+        part, of_part = inputs, (lambda part, *args: fn(part, *args))
+    else:
+        part = select(inputs)
+
+        def of_part(part, *args):
+            return fn(eqx.tree_at(select, inputs, part), *args)
+
+    adjoint_fn = eqx.filter_jit(lambda part, *args: value_and_sensitivities(of_part, part, *args))
+    bump_fn = eqx.filter_jit(lambda part, *args: bump_and_revalue(
+        of_part, part, *args, relative_step=relative_step, batched=True, batch_size=batch_size))
+    adjoint_timing, (value, adjoint) = time_function(adjoint_fn, part, *args, repeats=repeats)
+    if batched:
+        bump_timing, bumped = time_function(bump_fn, part, *args, repeats=repeats)
+        bump_seconds, bump_compile = bump_timing.median_seconds, bump_timing.compile_seconds
+    else:
+        start = time.perf_counter()
+        bumped = bump_and_revalue(of_part, part, *args, relative_step=relative_step, batched=False)
+        bump_seconds, bump_compile = time.perf_counter() - start, 0.0
+    return BumpComparison(
+        value=float(value),
+        adjoint=adjoint,
+        bumped=bumped,
+        max_rel_diff=max_relative_difference(eqx.filter(adjoint, eqx.is_inexact_array), bumped, floor=floor),
+        adjoint_seconds=adjoint_timing.median_seconds,
+        bump_seconds=bump_seconds,
+        speedup=bump_seconds / adjoint_timing.median_seconds,
+        adjoint_compile_seconds=adjoint_timing.compile_seconds,
+        bump_compile_seconds=bump_compile,
+    )

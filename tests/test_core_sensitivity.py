@@ -68,3 +68,13 @@ def test_auto_mode_picks_the_fewer_passes():
 def test_max_relative_difference_uses_a_floor_for_near_zero_entries():
     assert snapo_ode.max_relative_difference([1.0, 1e-20], [1.0, 0.0]) < 1e-11
     assert snapo_ode.max_relative_difference([1.1, 0.0], [1.0, 0.0]) == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("batched", [True, False])
+def test_compare_with_bumps_reports_agreement_and_timings(batched):
+    comparison = snapo_ode.compare_with_bumps(objective, INPUTS, select=lambda p: p["a"], batched=batched,
+                                              repeats=1)
+    np.testing.assert_allclose(comparison.adjoint, analytic(INPUTS)["a"], rtol=1e-13)
+    assert comparison.max_rel_diff < 1e-8
+    assert comparison.value == pytest.approx(float(objective(INPUTS)), rel=1e-15)
+    assert comparison.speedup == pytest.approx(comparison.bump_seconds / comparison.adjoint_seconds)
