@@ -63,7 +63,7 @@ def run_gas_benchmark(out: pathlib.Path, *, paths: int, repeats: int) -> int:
     stochastic, _ = run_study(stochastic_inputs, StudySettings(stochastic=True, paths=paths, bump=True,
                                                             repeats=repeats, train_steps=400))
     print(summary_table(stochastic))
-    rollouts = rollout_comparison(repeats)
+    rollouts = rollout_comparison(max(repeats, 25))
     pairs = facility_pairs(1)
     rows = []
     for name, result in (("deterministic", deterministic), (f"stochastic, {paths} paths", stochastic)):
