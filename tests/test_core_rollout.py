@@ -43,9 +43,9 @@ def test_closed_form_linear_recursion():
 
 def test_scan_and_diffrax_identical_values_and_gradients(problem):
     values = {m: terminal_cost(problem, m) for m in ("scan", "diffrax")}
-    grads = {m: eqx.filter_grad(lambda a: terminal_cost(a, m))(problem) for m in ("scan", "diffrax")}
+    grads = {m: eqx.filter_grad(lambda a, m=m: terminal_cost(a, m))(problem) for m in ("scan", "diffrax")}
     np.testing.assert_allclose(values["scan"], values["diffrax"], rtol=1e-14)
-    for a, b in zip(jax.tree.leaves(grads["scan"]), jax.tree.leaves(grads["diffrax"])):
+    for a, b in zip(jax.tree.leaves(grads["scan"]), jax.tree.leaves(grads["diffrax"]), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
 
 
@@ -71,5 +71,5 @@ def test_remat_gives_identical_values_and_gradients(problem):
 
     plain, rematerialised = (eqx.filter_value_and_grad(lambda a, r=r: cost(a, r))(problem) for r in (False, True))
     np.testing.assert_allclose(plain[0], rematerialised[0], rtol=1e-15)
-    for a, b in zip(jax.tree.leaves(plain[1]), jax.tree.leaves(rematerialised[1])):
+    for a, b in zip(jax.tree.leaves(plain[1]), jax.tree.leaves(rematerialised[1]), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)

@@ -3,7 +3,6 @@ facility/curve pairs, every adjoint sensitivity against central bumps, effects, 
 
 import json
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
