@@ -1,0 +1,88 @@
+"""Independent checks of the chain: the mechanism's rates and R1's trajectory against Cantera, R1's
+stiffness ratio, and R1 against SciPy's Radau at tight tolerance. Used by the tests and the report."""
+
+from typing import NamedTuple
+
+import jax
+import numpy as np
+
+from chemistry import compare_rates
+
+from ._chain import PharmaChain
+from ._liquid import TEMPERATURE_SCALE
+from ._parameters import CPPs, PhysicalParameters
+
+
+class CanteraCheck(NamedTuple):
+    """Rates of progress and net production rates at random liquid states (max relative error),
+    and R1 (energy balance, jacket) against Cantera's `ConstPressureReactor` with a wall to a
+    reservoir at the jacket temperature: max relative difference of the outlet amounts and of T."""
+
+    rates_of_progress: float
+    net_production: float
+    r1_amounts: float
+    r1_temperature: float
+
+
+def stiffness_ratio(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, state=None) -> float:
+    """max |Re lambda| / min |Re lambda| over the non-zero eigenvalues of R1's species Jacobian
+    d(dy/dt)/dy [1/s] at its feed (or at `state`, amounts [kmol/m^3]) and the R1 temperature.
+    Eigenvalues below 1e-13 of the largest are the conserved quantities' zeros (solvent,
+    element balances) up to round-off."""
+    mechanism, rates = chain.active_kinetics(chain.rate_parameters)
+    from ._liquid import LiquidBatch
+
+    unit = LiquidBatch(mechanism, False)
+    start = chain.feed(cpps.r1_temperature, rates, physical, mechanism) if state is None else state
+    jacobian = jax.jacfwd(lambda y: unit.production(cpps.r1_temperature, y, rates))(start)
+    magnitudes = np.abs(np.linalg.eigvals(np.asarray(jacobian)).real)
+    nonzero = magnitudes[magnitudes > 1e-13 * magnitudes.max()]
+    return float(nonzero.max() / nonzero.min())
+
+
+def r1_trajectory(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
+    """R1's accepted steps: (times [s], amounts [kmol/m^3] shape (n, n_species), T [K] shape (n,))."""
+    solution = chain.run_r1(cpps, chain.rate_parameters, physical, steps=True)
+    finite = np.isfinite(np.asarray(solution.ts))
+    ys = np.asarray(solution.ys)[finite]
+    n_species = chain.mechanism.n_species
+    temperature = ys[:, n_species] * TEMPERATURE_SCALE if ys.shape[1] > n_species else np.full(len(ys), float(cpps.r1_temperature))
+    return 60.0 * float(cpps.r1_residence_time) * np.asarray(solution.ts)[finite], ys[:, :n_species], temperature
+
+
+def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, rtol=1e-11):
+    """R1 integrated by Cantera: (amounts per m^3 of feed volume, T [K]) at the outlet."""
+    import cantera
+
+    mechanism, rates = chain.active_kinetics(chain.rate_parameters)
+    feed = np.asarray(chain.feed(cpps.r1_temperature, rates, physical, mechanism))
+    liquid = cantera.Solution(str(path))
+    temperature = float(cpps.r1_temperature)
+    liquid.TPX = temperature, cantera.one_atm, feed / feed.sum()
+    # clone=False: in Cantera 3.2 a cloned ideal-condensed phase does not keep the state it was
+    # given (its density and composition change; measured), so each reactor gets its own Solution.
+    reactor = cantera.ConstPressureReactor(liquid, energy="on" if chain.scene.has("energy_balance") else "off",
+                                           clone=False)
+    reactor.volume = 1.0
+    outside = cantera.Solution(str(path))
+    outside.TPX = temperature, cantera.one_atm, feed / feed.sum()
+    jacket = cantera.Reservoir(outside, clone=False)
+    cantera.Wall(jacket, reactor, A=1.0, U=float(physical.jacket_ua))
+    network = cantera.ReactorNet([reactor])
+    network.rtol, network.atol = rtol, 1e-20
+    network.advance(60.0 * float(cpps.r1_residence_time))
+    return reactor.phase.concentrations * reactor.volume, reactor.phase.T
+
+
+def cantera_check(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, n_states: int = 100) -> CanteraCheck:
+    """The mechanism and R1 against Cantera (`chain` should use tight tolerances)."""
+    rates = compare_rates(chain.mechanism, path, n_states=n_states, temperature=(270.0, 360.0))
+    amounts, temperature = cantera_r1(chain, cpps, physical, path)
+    outlet = chain.run_r1(cpps, chain.rate_parameters, physical)
+    ours = np.asarray(outlet.amounts)
+    significant = amounts > 1e-12 * amounts.max()
+    return CanteraCheck(
+        rates.rates_of_progress, rates.net_production,
+        float(np.max(np.abs(ours - amounts)[significant] / amounts[significant])),
+        float(abs(float(outlet.temperature) - temperature) / temperature),
+    )

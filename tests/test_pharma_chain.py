@@ -1,0 +1,145 @@
+"""The pharma chain: the mechanism and R1 against Cantera, the dryer against its closed form, the
+crystallizer's mass balance, effects absent from the jaxpr, and the errors bad input gets."""
+
+import itertools
+
+import cantera
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import snapo_ode
+from chemistry import Mechanism
+from chemistry.pharma import (
+    CPP_NAMES, CPP_RANGES, DEFAULT_MECHANISM, MOLAR_MASSES, PHARMA_EFFECTS, ChainSolver, PharmaChain,
+    cqa_vector, default_physical_parameters, make_cpps, outside_par)
+from chemistry.pharma._crystallizer import Crystallizer, solubility
+from chemistry.pharma._dryer import Dryer, arrhenius
+from chemistry.pharma._profiles import LinearRamp
+from chemistry.pharma._verification import cantera_check, r1_trajectory, stiffness_ratio
+
+TIGHT = ChainSolver(rtol=1e-12, atol=1e-14, max_steps=20000)
+
+
+@pytest.fixture(scope="module")
+def physical():
+    return default_physical_parameters()
+
+
+@pytest.mark.parametrize("without", [(), ("energy_balance",)])
+def test_mechanism_rates_and_r1_match_cantera(physical, without):
+    chain = PharmaChain(scene=PHARMA_EFFECTS.scene(without=without), solver=TIGHT)
+    check = cantera_check(chain, make_cpps(r1_temperature=318.15), physical, DEFAULT_MECHANISM, n_states=60)
+    assert check.rates_of_progress <= 1e-12
+    assert check.net_production <= 1e-10
+    assert check.r1_amounts <= 1e-8  # ConstPressureReactor (+ wall to the jacket) at rtol 1e-11
+    assert check.r1_temperature <= 1e-10
+
+
+def test_mechanism_is_liquid_and_molar_masses_are_cantera_s():
+    liquid = cantera.Solution(str(DEFAULT_MECHANISM))
+    assert liquid.thermo_model == "ideal-condensed" and liquid.kinetics_model == "bulk"
+    assert all(not reaction.reversible for reaction in liquid.reactions())
+    np.testing.assert_allclose([MOLAR_MASSES[name] for name in liquid.species_names], liquid.molecular_weights,
+                               rtol=1e-4)
+
+
+@pytest.mark.parametrize("corner", list(itertools.product(*[r.par for r in CPP_RANGES[:2]])))
+def test_r1_is_stiff_and_stays_non_negative_at_every_corner(physical, corner):
+    chain = PharmaChain()
+    cpps = make_cpps(**dict(zip(CPP_NAMES[:2], corner, strict=True)))
+    times, amounts, temperature = r1_trajectory(chain, cpps, physical)
+    assert times[-1] == pytest.approx(60 * corner[1])
+    assert amounts.min() >= -chain.solver.atol
+    assert np.all(np.abs(temperature - corner[0]) < 5.0)
+    assert stiffness_ratio(chain, cpps, physical) >= 1e6
+    # The stiffness persists along the trajectory, not only at the feed.
+    assert stiffness_ratio(chain, cpps, physical, jnp.asarray(amounts[len(amounts) // 2])) >= 1e6
+
+
+def test_dryer_matches_its_closed_form(physical):
+    temperature = jnp.asarray(321.0)
+    out = Dryer(True)(jnp.asarray(0.3), jnp.asarray(0.99), temperature, physical, TIGHT)
+    time = float(physical.drying_time)
+    drying = float(arrhenius(physical.drying_rate, physical.drying_activation, temperature,
+                             physical.dryer_ref_temperature))
+    degrading = float(arrhenius(physical.solid_degradation_rate, physical.solid_degradation_activation,
+                                temperature, physical.dryer_ref_temperature))
+    assert float(out.solvent) == pytest.approx(0.3 * np.exp(-drying * time), rel=1e-9)
+    assert float(out.degradant_formed) == pytest.approx(0.99 * -np.expm1(-degrading * time), rel=1e-8)
+
+
+def test_crystallizer_conserves_api_and_follows_van_t_hoff(physical):
+    api0 = jnp.asarray(0.28)
+    ramp = LinearRamp(physical.hold_temperature, physical.final_temperature)
+    out = Crystallizer(MOLAR_MASSES["P"], True)(api0, jnp.asarray(3e-3), jnp.asarray(1e-4), ramp, 5400.0,
+                                                physical, TIGHT)
+    seed = float(physical.seed_loading)
+    grown = float(out.crystal_mass(physical)) - seed
+    moved = (float(api0) - float(out.api)) * MOLAR_MASSES["P"]
+    assert grown == pytest.approx(moved, rel=1e-9)
+    # At the end the liquor is supersaturated (growth needs it) but within a factor 2 of C*.
+    saturated = float(solubility(physical.final_temperature, physical))
+    assert saturated < float(out.api) < 2 * saturated
+    ratio = float(solubility(jnp.asarray(300.0), physical) / solubility(jnp.asarray(310.0), physical))
+    assert ratio == pytest.approx(np.exp(-float(physical.solubility_enthalpy) / 8314.46261815324
+                                         * (1 / 300 - 1 / 310)), rel=1e-12)
+    assert 0 < float(out.impurity_solid) < 3e-3 and float(out.mean_size()) > float(physical.seed_size)
+
+
+def _ops(scene, physical):
+    chain = PharmaChain(scene=scene)
+    return snapo_ode.count_operations(lambda c: cqa_vector(chain.simulate(c, None, physical)), make_cpps())
+
+
+@pytest.mark.parametrize("effect", ["crystallization", "drying", "energy_balance", "impurity_incorporation",
+                                    "degradation"])
+def test_an_effect_left_out_is_absent_from_the_jaxpr(physical, effect):
+    full = _ops(PHARMA_EFFECTS.scene(), physical)
+    without = PHARMA_EFFECTS.scene(without=[effect, *(("impurity_incorporation",) if effect == "crystallization" else ())])
+    assert _ops(without, physical) < full
+
+
+def test_side_reactions_off_removes_the_impurity_and_the_stiffness(physical):
+    chain = PharmaChain(scene=PHARMA_EFFECTS.scene(without=["side_reactions"]))
+    assert len(chain.active_reactions) == 2
+    result = chain.simulate(make_cpps(), None, physical)
+    i, x = chain.species["I"], chain.species["X"]
+    assert float(result.r2.amounts[i]) == 0.0 and float(result.r2.amounts[x]) == 0.0
+    assert float(cqa_vector(result)[1]) == 0.0
+
+
+def test_nominal_chain_meets_the_specs_and_an_extreme_corner_does_not(physical):
+    from chemistry.pharma import meets_specs
+
+    chain = PharmaChain()
+    nominal = cqa_vector(chain.simulate(make_cpps(), None, physical))
+    hot = cqa_vector(chain.simulate(make_cpps(r1_temperature=323.15, r1_residence_time=40.0,
+                                              dryer_temperature=328.15), None, physical))
+    assert float(meets_specs(nominal)) == 1.0
+    assert float(meets_specs(hot)) == 0.0
+    assert float(hot[2]) > float(nominal[2])  # a hotter dryer degrades more
+
+
+def test_bad_input_names_the_field(tmp_path):
+    with pytest.raises(snapo_ode.InputError, match="r1_residence_time"):
+        make_cpps(r1_residence_time=-5.0)
+    with pytest.raises(snapo_ode.InputError, match="dryer_temperature"):
+        make_cpps(dryer_temperature=150.0)
+    with pytest.raises(snapo_ode.InputError, match="r1_temperature"):
+        make_cpps(r1_temperature=360.0)  # above the solvent's boiling point
+    with pytest.raises(snapo_ode.InputError, match="unknown CPP 'r1_pressure'"):
+        make_cpps(r1_pressure=2.0)
+    with pytest.raises(snapo_ode.InputError, match="unknown physical parameter"):
+        default_physical_parameters(jacket_area=1.0)
+    with pytest.raises(snapo_ode.InputError, match="rtol"):
+        ChainSolver(rtol=2.0)
+    assert outside_par(make_cpps(cooling_rate=2.0))[0].startswith("cooling_rate = 2")
+    assert outside_par(make_cpps()) == []
+    text = DEFAULT_MECHANISM.read_text().replace("species: [A, B, P, I, X, D, S]", "species: [A, B, P, I, X, S]")
+    lacking = tmp_path / "lacking.yaml"
+    lacking.write_text(text.replace("- equation: P => D\n  rate-constant: {A: 5.0e+10, b: 0.0, Ea: 110.0}\n", ""))
+    with pytest.raises(snapo_ode.InputError, match="species 'D'"):
+        PharmaChain(Mechanism.from_yaml(lacking))
