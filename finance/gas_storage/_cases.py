@@ -42,9 +42,36 @@ def salt_cavern() -> tuple[dict, np.ndarray]:
     return facility, curve
 
 
+# Boogert & de Jong (2008), "Gas storage valuation using a Monte Carlo method", J. Derivatives
+# 15(3), Exhibit 1: one-factor Schwartz spot, mean reversion 0.05/day, volatility 3.15% or 9.45%
+# per sqrt(day), converted to the model's units (365 days a year, exact daily OU steps).
+BDJ_MEAN_REVERSION = 0.05 * 365.0  # [1/year]
+BDJ_VOLATILITY = {"low": 0.0315 * np.sqrt(365.0), "high": 0.0945 * np.sqrt(365.0)}  # [1/sqrt(year)]
+BDJ_PUBLISHED = {"intrinsic": 2.7e6, "lsmc_low": 3.1e6, "lsmc_high": 5.4e6}  # [EUR]
+BDJ_JULY, BDJ_FEBRUARY = slice(0, 31), slice(215, 243)  # days from 1 Jul 2005
+BDJ_PEAK_DAY = 198  # 15 Jan 2006
+
+
+def boogert_de_jong() -> tuple[dict, np.ndarray]:
+    """The B&dJ (2008) contract: 365 days from 1 Jul 2005 [EUR/MWh, MWh], capacity 250,000, start
+    and end 100,000, injection 2,500/day, withdrawal 7,500/day, no costs, no discounting. The
+    forward curve is stylised: a + b cos(2 pi (t - 198) / 365), peaking on 15 Jan 2006, with a, b
+    fitted so that the July 2005 mean is 14.88 and the February 2006 mean 25.44 (the two
+    published TTF quotes)."""
+    season = np.cos(2 * np.pi * (_DAYS - BDJ_PEAK_DAY) / 365.0)
+    level, amplitude = np.linalg.solve([[1.0, season[BDJ_JULY].mean()], [1.0, season[BDJ_FEBRUARY].mean()]],
+                                       [14.88, 25.44])
+    facility = dict(capacity=250_000.0, initial_inventory=100_000.0, terminal_inventory_min=100_000.0,
+                    max_injection=2_500.0, max_withdrawal=7_500.0, injection_ratchet=FLAT_RATCHET,
+                    withdrawal_ratchet=FLAT_RATCHET, fuel_loss=0.0, injection_cost=0.0, withdrawal_cost=0.0,
+                    rate=0.0)
+    return facility, level + amplitude * season
+
+
 CASES = {
     "sample": lambda: (sample_facility(), sample_curve()),
     "peaking_winter_spike": peaking_winter_spike,
     "depleted_field": depleted_field,
     "salt_cavern": salt_cavern,
+    "bdj": boogert_de_jong,
 }

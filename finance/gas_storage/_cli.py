@@ -7,13 +7,20 @@ DEFAULT_OUT = pathlib.Path("snapo-out")
 
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
+    from ._cases import CASES
+
+    parser.add_argument("--sample", choices=sorted(CASES), default="sample",
+                        help="built-in facility and curve (bdj: Boogert & de Jong 2008)")
     parser.add_argument("--curve", type=pathlib.Path, help="forward curve CSV with header day,price "
-                        "[$/MMBtu] (default: the built-in 365-day sample)")
-    parser.add_argument("--facility", type=pathlib.Path, help="facility JSON (default: the built-in sample)")
+                        "[$/MMBtu] (default: the --sample's)")
+    parser.add_argument("--facility", type=pathlib.Path, help="facility JSON (default: the --sample's)")
     parser.add_argument("--stochastic", action="store_true", help="trade on simulated spot paths")
-    parser.add_argument("--volatility", type=float, default=0.5, help="OU factor volatility [1/sqrt(year)]")
-    parser.add_argument("--mean-reversion", type=float, default=2.0, help="OU mean reversion [1/year]")
+    parser.add_argument("--volatility", type=float, help="OU factor volatility [1/sqrt(year)] (default 0.5; "
+                        "bdj: 0.6018, B&dJ's 3.15%% per sqrt(day))")
+    parser.add_argument("--mean-reversion", type=float, help="OU mean reversion [1/year] (default 2; "
+                        "bdj: 18.25, B&dJ's 0.05/day)")
     parser.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths (stochastic mode)")
+    parser.add_argument("--train-paths", type=int, default=256, help="fresh paths per training step")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--train-steps", type=int, default=1500)
     parser.add_argument("--sharpness", type=float, default=200.0,
@@ -26,13 +33,20 @@ def study_from_args(args):
     from .. import gas_storage as gs
     from ._study import StudySettings
 
-    facility = gs.load_facility(args.facility) if args.facility else gs.sample_facility()
-    curve = gs.load_curve(args.curve) if args.curve else gs.sample_curve()
-    volatility = args.volatility if args.stochastic else 0.0
-    mean_reversion = args.mean_reversion if args.stochastic else 0.0
+    from ._cases import BDJ_MEAN_REVERSION, BDJ_VOLATILITY, CASES
+
+    sample_facility, sample_curve = CASES[args.sample]()
+    facility = gs.load_facility(args.facility) if args.facility else sample_facility
+    curve = gs.load_curve(args.curve) if args.curve else sample_curve
+    bdj = args.sample == "bdj"
+    volatility = (BDJ_VOLATILITY["low"] if bdj else 0.5) if args.volatility is None else args.volatility
+    mean_reversion = (BDJ_MEAN_REVERSION if bdj else 2.0) if args.mean_reversion is None else args.mean_reversion
+    if not args.stochastic:
+        volatility = mean_reversion = 0.0
     inputs = gs.make_inputs(facility, curve, volatility=volatility, mean_reversion=mean_reversion)
-    settings = StudySettings(stochastic=args.stochastic, paths=args.paths, seed=args.seed,
-                             train_steps=args.train_steps, sharpness=args.sharpness, bump=args.bump)
+    settings = StudySettings(stochastic=args.stochastic, paths=args.paths, train_paths=args.train_paths,
+                             seed=args.seed, train_steps=args.train_steps, sharpness=args.sharpness,
+                             bump=args.bump)
     return inputs, settings
 
 
@@ -54,6 +68,20 @@ def summary_table(result: dict) -> str:
     ]
     if "value_hard_se" in result:
         lines.insert(3, f"  standard error (out of sample)      {result['value_hard_se']:>16,.0f} $")
+    if "lsmc_out_of_sample" in result:
+        lines += [
+            f"  on the same {result['paths']:,} fresh paths (out of sample, hard constraints):",
+            f"    SNAPO policy                      {result['snapo_out_of_sample']:>16,.0f} $ +- {result['snapo_se']:,.0f}",
+            f"    LSMC ({result['lsmc_nodes']} nodes, degree {result['lsmc_degree']})         "
+            f"{result['lsmc_out_of_sample']:>16,.0f} $ +- {result['lsmc_se']:,.0f}"
+            f"   (in sample {result['lsmc_in_sample']:,.0f})",
+            f"    SNAPO - LSMC (paired)             {result['snapo_minus_lsmc']:>16,.0f} $ +- "
+            f"{result['snapo_minus_lsmc_se']:,.0f}",
+            f"    perfect foresight ({result['perfect_foresight_paths']} paths)     "
+            f"{result['perfect_foresight']:>16,.0f} $ +- {result['perfect_foresight_se']:,.0f}",
+            f"  wall time: SNAPO training + every delta {result['snapo_seconds']:.1f} s; LSMC valuation "
+            f"{result['lsmc_fit_seconds']:.2f} s (+ {result['lsmc_eval_seconds']:.2f} s out of sample); compile apart",
+        ]
     if "bump_seconds" in result:
         lines.append(
             f"  central bump-and-revalue: batched {1e3 * result['bump_batched_seconds']:.1f} ms, sequential "
@@ -63,12 +91,20 @@ def summary_table(result: dict) -> str:
 
 
 def run_gas(args) -> int:
-    from snapo_ode import atomic_write_json, save_policy
+    from snapo_ode import InputError, atomic_write_json, save_policy
 
     from ._study import run_study
 
+    from ._versus_lsmc import compare_with_lsmc
+
     inputs, settings = study_from_args(args)
-    result, policy = run_study(inputs, settings)
+    if args.lsmc:
+        if not settings.stochastic:
+            raise InputError("--lsmc needs --stochastic (LSMC values the optionality on simulated spot paths).")
+        result, policy = compare_with_lsmc(inputs, settings, nodes=args.lsmc_nodes, degree=args.lsmc_degree,
+                                           foresight_paths=args.foresight_paths)
+    else:
+        result, policy = run_study(inputs, settings)
     policy_path = args.json.with_suffix(".policy.eqx")
     save_policy(policy_path, policy)
     atomic_write_json(args.json, result)
@@ -104,6 +140,11 @@ def register_gas(cli) -> None:
     gas = cli.command("gas", "train a storage policy, value it hard and smooth against the intrinsic LP, "
                       "and take every forward-curve delta from one reverse pass")
     add_study_arguments(gas)
+    gas.add_argument("--lsmc", action="store_true", help="also value by least-squares Monte Carlo and perfect "
+                     "foresight on the same fresh paths (needs --stochastic)")
+    gas.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC inventory grid levels")
+    gas.add_argument("--lsmc-degree", type=int, default=3, help="LSMC polynomial degree in spot")
+    gas.add_argument("--foresight-paths", type=int, default=256, help="paths of the perfect-foresight LPs")
     gas.add_argument("--json", type=pathlib.Path, default=DEFAULT_OUT / "gas.json", help="output JSON path")
     gas.set_defaults(handler=run_gas)
     demo = cli.command("demo", "the gas-storage study on the built-in sample facility and curve")

@@ -64,7 +64,7 @@ def constraint_violation(schedule, inputs: StorageInputs, kept: float) -> float:
     return max(0.0, max(float(np.max(v)) for v in violations))
 
 
-def _standard_error(values) -> float:
+def standard_error(values) -> float:
     values = np.asarray(values)
     return float(np.std(values, ddof=1) / np.sqrt(values.size)) if values.size > 1 else 0.0
 
@@ -85,16 +85,23 @@ def named_sensitivities(gradient: StorageInputs) -> dict[str, float]:
     return named
 
 
+def evaluation_shocks(settings: StudySettings, n_days: int) -> jax.Array:
+    """The normal shocks of the evaluation paths, shape (paths, T): fresh, never trained on, and
+    the same for every method valued on them (LSMC included)."""
+    _, _, eval_key = jax.random.split(jax.random.key(settings.seed), 3)
+    return jax.random.normal(eval_key, (settings.paths, n_days))
+
+
 def run_study(inputs: StorageInputs, settings: StudySettings) -> tuple[dict, MLPPolicy]:
     """Train, evaluate, compare with the LP, and compute sensitivities. Returns the JSON-ready
     result (keys documented in docs/gas_storage.md) and the trained policy."""
     scene = stochastic_scene() if settings.stochastic else deterministic_scene()
     key = jax.random.key(settings.seed)
-    policy_key, train_key, eval_key = jax.random.split(key, 3)
+    policy_key, train_key, _ = jax.random.split(key, 3)
     eval_shocks = None
     spot_scale = 1.0
     if settings.stochastic:
-        eval_shocks = jax.random.normal(eval_key, (settings.paths, inputs.n_days))
+        eval_shocks = evaluation_shocks(settings, inputs.n_days)
         kappa = max(float(inputs.mean_reversion), 1e-6)
         spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
     policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale)
@@ -172,8 +179,8 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> tuple[dict, MLP
     }
     if settings.stochastic:
         result.update(paths=settings.paths, train_paths=settings.train_paths, seed=settings.seed,
-                      value_hard_se=_standard_error(hard_run.value),
-                      value_smooth_se=_standard_error(smooth_run.value),
+                      value_hard_se=standard_error(hard_run.value),
+                      value_smooth_se=standard_error(smooth_run.value),
                       evaluation="out of sample: fresh paths, not those trained on",
                       schedule_note="schedule entries are means over the evaluation paths")
     if settings.bump:
