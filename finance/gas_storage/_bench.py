@@ -103,11 +103,16 @@ def run_gas_benchmark(out: pathlib.Path, *, paths: int, repeats: int) -> int:
     for row in pairs:
         print(f"{row['case']} | {row['intrinsic_lp']:,.0f} | {row['value_hard']:,.0f} | {100 * row['hard_over_lp']:.2f}% | "
               f"{row['smoothing_gap']:,.0f} | {row['max_constraint_violation']:.1e} | {row['train_seconds']:.1f}")
+    write_tables(out, "bench_gas", rows, {"studies": rows, "rollout": rollouts, "facility_pairs": pairs})
+    return 0
+
+
+def write_tables(out: pathlib.Path, name: str, rows: list[dict], everything: dict) -> None:
+    """Write `rows` as `out/name.csv` and `everything` as `out/name.json`, atomically."""
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
     writer.writeheader()
     writer.writerows(rows)
-    atomic_write_text(out / "bench_gas.csv", buffer.getvalue())
-    atomic_write_json(out / "bench_gas.json", {"studies": rows, "rollout": rollouts, "facility_pairs": pairs})
-    print(f"written: {out / 'bench_gas.csv'}, {out / 'bench_gas.json'}")
-    return 0
+    atomic_write_text(out / f"{name}.csv", buffer.getvalue())
+    atomic_write_json(out / f"{name}.json", everything)
+    print(f"written: {out / (name + '.csv')}, {out / (name + '.json')}")

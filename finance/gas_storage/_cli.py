@@ -135,6 +135,14 @@ def run_bench(args) -> int:
     return run_gas_benchmark(args.out, paths=args.paths, repeats=args.repeats)
 
 
+def run_bench_lsmc(args) -> int:
+    from ._bench_lsmc import run_lsmc_benchmark
+
+    run_lsmc_benchmark(args.out, paths=args.paths, train_paths=args.train_paths, train_steps=args.train_steps,
+                       foresight_paths=args.foresight_paths, nodes=args.lsmc_nodes, degree=args.lsmc_degree)
+    return 0
+
+
 def register_gas(cli) -> None:
     """Add `snapo gas`, `snapo demo` and `snapo bench gas`."""
     gas = cli.command("gas", "train a storage policy, value it hard and smooth against the intrinsic LP, "
@@ -155,3 +163,13 @@ def register_gas(cli) -> None:
     bench.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths of the stochastic case")
     bench.add_argument("--repeats", type=int, default=5)
     bench.set_defaults(handler=run_bench)
+    versus = cli.bench("gas-lsmc", "SNAPO against least-squares Monte Carlo on the Boogert & de Jong (2008) "
+                       "contract, both volatilities, the same fresh paths")
+    versus.add_argument("--out", type=pathlib.Path, default=DEFAULT_OUT)
+    versus.add_argument("--paths", type=int, default=10_000, help="LSMC fitting paths and evaluation paths")
+    versus.add_argument("--train-paths", type=int, default=256, help="SNAPO: fresh paths per training step")
+    versus.add_argument("--train-steps", type=int, default=400)
+    versus.add_argument("--foresight-paths", type=int, default=1000, help="paths of the perfect-foresight LPs")
+    versus.add_argument("--lsmc-nodes", type=int, default=101)
+    versus.add_argument("--lsmc-degree", type=int, default=3)
+    versus.set_defaults(handler=run_bench_lsmc)
