@@ -4,6 +4,22 @@ from pathlib import Path
 
 from ._crosscheck import RateComparison as RateComparison, compare_rates as compare_rates
 from ._mechanism import Mechanism as Mechanism, RateParameters as RateParameters
+from ._ignition import (
+    IGNITION_CASES as IGNITION_CASES,
+    IgnitionCase as IgnitionCase,
+    IgnitionResult as IgnitionResult,
+    cantera_ignition as cantera_ignition,
+    ignition_delay as ignition_delay,
+    initial_concentrations as initial_concentrations,
+    solve_ignition as solve_ignition,
+)
+from ._reactor import (
+    REACTOR_EFFECTS as REACTOR_EFFECTS,
+    Reactor as Reactor,
+    SolverSettings as SolverSettings,
+    Trajectory as Trajectory,
+    simulate as simulate,
+)
 from ._thermo import SpeciesThermo as SpeciesThermo
 from ._units import GAS_CONSTANT as GAS_CONSTANT, ONE_ATM as ONE_ATM
 

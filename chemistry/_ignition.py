@@ -1,0 +1,145 @@
+"""Constant-volume adiabatic ignition, ours and Cantera's, with one definition of the ignition
+delay for both: the first time the temperature reaches T0 + `rise` [K], located by bisection on
+each solver's own interpolant (our dense output; for Cantera, restarts from the last step before
+the crossing), so the delay is accurate to the solve, not to the output grid."""
+
+from pathlib import Path
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from snapo_ode import InputError, check_range
+
+from ._mechanism import Mechanism
+from ._reactor import Reactor, SolverSettings, Trajectory, simulate
+from ._units import ONE_ATM
+
+IGNITION_RISE = 400.0
+"""The temperature rise [K] that defines the ignition delay."""
+
+
+class IgnitionCase(NamedTuple):
+    """A constant-volume adiabatic ignition: the mixture `composition` (Cantera's "A:1,B:2"
+    mole ratios) at `temperature` [K] and `pressure` [Pa], integrated to `end_time` [s]."""
+
+    composition: str
+    temperature: float
+    pressure: float
+    end_time: float
+
+
+IGNITION_CASES = {
+    "h2o2": IgnitionCase("H2:2,O2:1,N2:3.76", 1000.0, ONE_ATM, 1e-3),
+    "gri30": IgnitionCase("CH4:1,O2:2,N2:7.52", 1500.0, ONE_ATM, 5e-3),
+}
+"""The built-in cases, keyed by the Cantera mechanism file's stem."""
+
+
+def initial_concentrations(path: str | Path, case: IgnitionCase, phase: str | None = None) -> np.ndarray:
+    """The case's molar concentrations [kmol/m^3], shape `(n_species,)`, as Cantera computes them."""
+    from ._crosscheck import cantera_solution
+
+    solution = cantera_solution(path, phase)
+    solution.TPX = case.temperature, case.pressure, case.composition
+    return solution.concentrations
+
+
+def ignition_delay(trajectory: Trajectory, initial_temperature, rise: float = IGNITION_RISE,
+                   iterations: int = 60):
+    """The first time [s] the temperature reaches `initial_temperature` + `rise` [K], by bisection
+    on the dense output of `simulate(..., dense=True)` between the two saved times around it.
+
+    **Raises:** `InputError` without dense output; inside jit, if the temperature never gets there.
+    """
+    if trajectory.solution.interpolation is None:
+        raise InputError("ignition_delay needs simulate(..., dense=True).")
+    threshold = initial_temperature + rise
+    above = trajectory.temperature >= threshold
+    above = eqx.error_if(above, ~jnp.any(above), "the temperature never reaches T0 + rise: no "
+                         "ignition before the last saved time; integrate longer or lower `rise`.")
+    first = jnp.argmax(above)
+    bracket = trajectory.times[jnp.maximum(first - 1, 0)], trajectory.times[first]
+
+    def halve(_, bracket):
+        low, high = bracket
+        middle = 0.5 * (low + high)
+        hot = trajectory.solution.evaluate(middle)[0] * initial_temperature >= threshold
+        return jnp.where(hot, low, middle), jnp.where(hot, middle, high)
+
+    low, high = jax.lax.fori_loop(0, iterations, halve, bracket)
+    return 0.5 * (low + high)
+
+
+class IgnitionResult(NamedTuple):
+    """One ignition run: `times` [s] (shape `(n_t,)`), `temperature` [K] (shape `(n_t,)`) and
+    the ignition `delay` [s]; `steps`: accepted steps (ours) or CVODES steps (Cantera)."""
+
+    times: np.ndarray
+    temperature: np.ndarray
+    delay: float
+    steps: int
+
+
+def solve_ignition(mechanism: Mechanism, concentrations, case: IgnitionCase, times, *,
+                   settings: SolverSettings = SolverSettings(), rise: float = IGNITION_RISE):
+    """Our constant-volume adiabatic ignition from `concentrations` [kmol/m^3] at
+    `case.temperature`, saved at `times` [s]: an `IgnitionResult`."""
+    reactor = Reactor(mechanism, "constant-volume", ("energy",))
+    run = eqx.filter_jit(lambda c: _trajectory_and_delay(reactor, case.temperature, c, times, settings, rise))
+    trajectory, delay = run(jnp.asarray(concentrations))
+    return IgnitionResult(np.asarray(times), np.asarray(trajectory.temperature), float(delay),
+                          int(trajectory.solution.stats["num_accepted_steps"]))
+
+
+def _trajectory_and_delay(reactor, temperature, concentrations, times, settings, rise):
+    trajectory = simulate(reactor, temperature, concentrations, times, settings=settings, dense=True)
+    return trajectory, ignition_delay(trajectory, temperature, rise)
+
+
+def cantera_ignition(path: str | Path, case: IgnitionCase, times, *, rtol: float = 1e-12,
+                     atol: float = 1e-20, rise: float = IGNITION_RISE, phase: str | None = None,
+                     iterations: int = 60) -> IgnitionResult:
+    """Cantera's `IdealGasReactor` (constant volume, adiabatic) from the case, temperature at
+    `times` [s], and the ignition delay: step to the first CVODES step past T0 + `rise`, then
+    bisect in that step by restarting from its start."""
+    import cantera
+
+    from ._crosscheck import cantera_solution
+
+    check_range("rise", rise, 0.0, low_open=True)
+    solution = cantera_solution(path, phase)
+    solution.TPX = case.temperature, case.pressure, case.composition
+
+    def network(start_time):
+        reactor = cantera.IdealGasReactor(solution, clone=False)
+        net = cantera.ReactorNet([reactor])
+        net.rtol, net.atol = rtol, atol
+        net.initial_time = start_time
+        return reactor, net
+
+    reactor, net = network(0.0)
+    temperatures = []
+    for t in np.asarray(times):
+        net.advance(float(t)) if t > 0 else None
+        temperatures.append(reactor.phase.T)
+    threshold = case.temperature + rise
+    solution.TPX = case.temperature, case.pressure, case.composition
+    reactor, net = network(0.0)
+    steps, before = 0, (0.0, solution.TDY)
+    while reactor.phase.T < threshold:
+        before = (net.time, reactor.phase.TDY)
+        net.step()
+        steps += 1
+        if net.time > times[-1]:
+            raise InputError("Cantera's temperature never reaches T0 + rise before the end time.")
+    low, high = before[0], net.time
+    for _ in range(iterations):
+        middle = 0.5 * (low + high)
+        solution.TDY = before[1]
+        reactor, net = network(before[0])
+        net.advance(middle)
+        low, high = (low, middle) if reactor.phase.T >= threshold else (middle, high)
+    return IgnitionResult(np.asarray(times), np.asarray(temperatures), 0.5 * (low + high), steps)
