@@ -2,6 +2,9 @@
 
 from snapo_ode.cli import CommandLine
 
+from .pharma._cli import register_pharma
+
 
 def register(cli: CommandLine) -> None:
     """Add this domain's verbs, benchmarks and reports to the `snapo` command line."""
+    register_pharma(cli)

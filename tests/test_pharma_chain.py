@@ -106,7 +106,7 @@ def test_side_reactions_off_removes_the_impurity_and_the_stiffness(physical):
     chain = PharmaChain(scene=PHARMA_EFFECTS.scene(without=["side_reactions"]))
     assert len(chain.active_reactions) == 2
     result = chain.simulate(make_cpps(), None, physical)
-    i, x = chain.species["I"], chain.species["X"]
+    i, x = chain.species_index("I"), chain.species_index("X")
     assert float(result.r2.amounts[i]) == 0.0 and float(result.r2.amounts[x]) == 0.0
     assert float(cqa_vector(result)[1]) == 0.0
 

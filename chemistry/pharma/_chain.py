@@ -108,7 +108,7 @@ class PharmaChain(eqx.Module):
     mechanism: Mechanism
     scene: Scene = eqx.field(static=True)
     solver: ChainSolver = eqx.field(static=True)
-    species: dict = eqx.field(static=True)
+    species: tuple[tuple[str, int], ...] = eqx.field(static=True)
     active_reactions: tuple[int, ...] = eqx.field(static=True)
     molar_masses: Float[Array, " s"]
 
@@ -116,7 +116,7 @@ class PharmaChain(eqx.Module):
                  solver: ChainSolver | None = None):
         path = DEFAULT_MECHANISM if mechanism is None else mechanism
         self.mechanism = mechanism if isinstance(mechanism, Mechanism) else Mechanism.from_yaml(path)
-        self.species = check_mechanism(self.mechanism, path)
+        self.species = tuple(check_mechanism(self.mechanism, path).items())
         self.scene = PHARMA_EFFECTS.scene() if scene is None else scene
         self.solver = ChainSolver() if solver is None else solver
         self.active_reactions = tuple(
@@ -135,13 +135,13 @@ class PharmaChain(eqx.Module):
         """The mechanism's own rate parameters (all reactions, in the file's order)."""
         return self.mechanism.parameters
 
-    def _index(self, name):
-        return self.species[name]
+    def species_index(self, name: str) -> int:
+        return dict(self.species)[name]
 
     def feed(self, temperature, rates: RateParameters, physical: PhysicalParameters, mechanism: Mechanism):
         """R1's feed [kmol/m^3]: A (split with X at the side equilibrium when it is active), B, and
         solvent filling the volume."""
-        a, x, b, solvent = (self._index(n) for n in ("A", "X", "B", "S"))
+        a, x, b, solvent = (self.species_index(n) for n in ("A", "X", "B", "S"))
         amounts = jnp.zeros(self.mechanism.n_species).at[b].set(physical.feed_b)
         if self.scene.has("side_reactions"):
             forward, _ = mechanism.rates_of_progress(temperature, jnp.ones(self.mechanism.n_species), rates)
@@ -190,7 +190,7 @@ class PharmaChain(eqx.Module):
             r1.amounts, physical.hold_temperature, ConstantTemperature(physical.hold_temperature),
             physical.hold_time, active_rates, physical.jacket_ua, self.solver)
         liquor = r2.concentrations(volumes)
-        p, i, d, s = (self._index(n) for n in ("P", "I", "D", "S"))
+        p, i, d, s = (self.species_index(n) for n in ("P", "I", "D", "S"))
 
         # Crystallizer (or equilibrium isolation).
         if self.scene.has("crystallization"):

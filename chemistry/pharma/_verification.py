@@ -86,3 +86,26 @@ def cantera_check(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, 
         float(np.max(np.abs(ours - amounts)[significant] / amounts[significant])),
         float(abs(float(outlet.temperature) - temperature) / temperature),
     )
+
+
+def scipy_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, rtol: float = 1e-12,
+             atol: float = 1e-16):
+    """R1 integrated by SciPy's Radau (an independent implicit Runge-Kutta code) at tight
+    tolerances, on the same right-hand side and its exact Jacobian: the outlet state (amounts
+    [kmol/m^3], then T / 300 K with the energy balance)."""
+    import jax.numpy as jnp
+    from scipy.integrate import solve_ivp
+
+    from ._liquid import LiquidBatch
+    from ._profiles import ConstantTemperature
+
+    mechanism, rates = chain.active_kinetics(chain.rate_parameters)
+    unit = LiquidBatch(mechanism, chain.scene.has("energy_balance"))
+    feed = chain.feed(cpps.r1_temperature, rates, physical, mechanism)
+    start = jnp.append(feed, cpps.r1_temperature / TEMPERATURE_SCALE) if unit.energy_balance else feed
+    args = (rates, ConstantTemperature(cpps.r1_temperature), 60.0 * cpps.r1_residence_time, physical.jacket_ua)
+    rhs = jax.jit(lambda s, y: unit.rhs(s, y, args))
+    jac = jax.jit(jax.jacfwd(lambda s, y: unit.rhs(s, y, args), argnums=1))
+    solution = solve_ivp(lambda s, y: np.asarray(rhs(s, y)), (0.0, 1.0), np.asarray(start), method="Radau",
+                         rtol=rtol, atol=atol, jac=lambda s, y: np.asarray(jac(s, y)))
+    return solution.y[:, -1]
