@@ -20,6 +20,13 @@ from ._reactor import (
     Trajectory as Trajectory,
     simulate as simulate,
 )
+from ._sensitivities import (
+    SensitivityComparison as SensitivityComparison,
+    cantera_sensitivities as cantera_sensitivities,
+    compare_sensitivities as compare_sensitivities,
+    final_temperature as final_temperature,
+    temperature_sensitivities as temperature_sensitivities,
+)
 from ._thermo import SpeciesThermo as SpeciesThermo
 from ._units import GAS_CONSTANT as GAS_CONSTANT, ONE_ATM as ONE_ATM
 

@@ -11,6 +11,7 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
@@ -118,7 +119,7 @@ class Reactor(eqx.Module):
         self.heat_transfer = jnp.asarray(check_range("heat_transfer", heat_transfer, 0.0))
         self.jacket_temperature = jnp.asarray(check_range("jacket_temperature", jacket_temperature, 0.0, low_open=True))
         self.residence_time = jnp.asarray(check_range("residence_time", residence_time, 0.0, low_open=True))
-        feed = jnp.zeros(mechanism.n_species) if feed_concentrations is None else feed_concentrations
+        feed = np.zeros(mechanism.n_species) if feed_concentrations is None else feed_concentrations
         self.feed_concentrations = jnp.asarray(check_range("feed_concentrations", feed, 0.0))
         if self.feed_concentrations.shape != (mechanism.n_species,):
             raise InputError(f"feed_concentrations has shape {self.feed_concentrations.shape}; "

@@ -1,0 +1,69 @@
+"""Constant-volume adiabatic ignition and its sensitivities against Cantera's ReactorNet, and our
+reverse-pass sensitivities against central bumps of our own solve."""
+
+from pathlib import Path
+
+import cantera
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from chemistry import (
+    IGNITION_CASES,
+    Mechanism,
+    SolverSettings,
+    cantera_ignition,
+    cantera_sensitivities,
+    compare_sensitivities,
+    final_temperature,
+    initial_concentrations,
+    solve_ignition,
+    temperature_sensitivities,
+)
+
+CANTERA_DATA = Path(cantera.__file__).parent / "data"
+BEFORE_IGNITION = SolverSettings(rtol=1e-10, atol=1e-14)  # no ignition front: tight tolerances work
+
+
+@pytest.mark.parametrize("name", ["h2o2", "gri30"])
+def test_ignition_delay_and_temperature_history_match_cantera(name):
+    path, case = CANTERA_DATA / f"{name}.yaml", IGNITION_CASES[name]
+    times = np.linspace(0.0, case.end_time, 51)
+    reference = cantera_ignition(path, case, times)
+    ours = solve_ignition(Mechanism.from_yaml(path), initial_concentrations(path, case), case, times)
+    assert case.end_time / 10 < reference.delay < case.end_time / 2
+    assert abs(ours.delay / reference.delay - 1) < 1e-4
+    assert np.max(np.abs(ours.temperature / reference.temperature - 1)) < 1e-3
+    assert ours.temperature[-1] > case.temperature + 1000.0
+
+
+@pytest.fixture(scope="module")
+def h2o2_sensitivities():
+    path, case = CANTERA_DATA / "h2o2.yaml", IGNITION_CASES["h2o2"]
+    mechanism = Mechanism.from_yaml(path)
+    concentrations = jnp.asarray(initial_concentrations(path, case))
+    ours, temperature = temperature_sensitivities(mechanism, concentrations, case, case.sensitivity_time,
+                                                  BEFORE_IGNITION)
+    return mechanism, concentrations, case, np.asarray(ours), float(temperature)
+
+
+def test_ten_largest_temperature_sensitivities_match_cantera_in_value_and_rank(h2o2_sensitivities):
+    _, _, case, ours, temperature = h2o2_sensitivities
+    reference, reference_temperature = cantera_sensitivities(CANTERA_DATA / "h2o2.yaml", case, case.sensitivity_time)
+    assert abs(temperature / reference_temperature - 1) < 1e-6
+    comparison = compare_sensitivities(ours, reference, top=10)
+    assert comparison.max_relative_difference < 1e-3
+    assert comparison.same_ranking
+    assert abs(comparison.cantera[0]) > 0.1  # late in the induction: sensitivities are large
+
+
+def test_reverse_pass_matches_central_bumps_of_our_own_solve(h2o2_sensitivities):
+    mechanism, concentrations, case, ours, temperature = h2o2_sensitivities
+    solve = eqx.filter_jit(lambda log_multiplier: final_temperature(
+        log_multiplier, mechanism, concentrations, case, case.sensitivity_time, BEFORE_IGNITION))
+    step, zero = 1e-5, jnp.zeros(mechanism.n_reactions)
+    for i in np.argsort(-np.abs(ours))[[0, 1, 4, 9]]:
+        bump = zero.at[i].set(step)
+        central = float(solve(bump) - solve(-bump)) / (2 * step) / temperature
+        assert abs(central - ours[i]) < 1e-5 * max(abs(ours[i]), 1e-3), (i, central, ours[i])
