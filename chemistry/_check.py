@@ -1,0 +1,133 @@
+"""`snapo kinetics check`: one mechanism against Cantera on rates, constant-volume ignition and
+temperature sensitivities, as a JSON-ready dictionary."""
+
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+from tqdm import tqdm
+
+from snapo_ode import InputError, check_range
+
+from ._crosscheck import compare_rates
+from ._ignition import IGNITION_CASES, IgnitionCase, cantera_ignition, initial_concentrations, solve_ignition
+from ._mechanism import Mechanism
+from ._reactor import SolverSettings
+from ._sensitivities import cantera_sensitivities, compare_sensitivities, temperature_sensitivities
+from ._units import ONE_ATM
+
+GAS_TEMPERATURES = (300.0, 2500.0)
+CONDENSED_TEMPERATURES = (280.0, 400.0)
+"""Random-state temperature ranges [K]: a liquid mechanism's thermo is fitted near ambient."""
+_SENSITIVITY_SETTINGS = SolverSettings(rtol=1e-10, atol=1e-14)
+
+
+def default_case(mechanism: Mechanism, path: str | Path) -> IgnitionCase | None:
+    """The built-in case of a Cantera file of the same name, else H2/O2 (1000 K) or CH4/air
+    (1500 K) when the species are there (diluted in N2 or AR if present), else None."""
+    stem = Path(path).stem
+    if stem in IGNITION_CASES:
+        return IGNITION_CASES[stem]
+    names = set(mechanism.species_names)
+    diluent = next((d for d in ("N2", "AR", "Ar") if d in names), None)
+    dilution = f",{diluent}:3.76" if diluent else ""
+    if {"H2", "O2"} <= names:
+        return IgnitionCase("H2:2,O2:1" + dilution, 1000.0, ONE_ATM, 1e-3, float("nan"))
+    if {"CH4", "O2"} <= names:
+        return IgnitionCase("CH4:1,O2:2" + dilution.replace("3.76", "7.52"), 1500.0, ONE_ATM, 5e-3, float("nan"))
+    return None
+
+
+def check_mechanism(path: str | Path, *, phase: str | None = None, n_states: int = 120, seed: int = 0,
+                    case: IgnitionCase | None = None, ignition: bool = True, sensitivities: bool = True,
+                    top: int = 10, n_times: int = 51, progress: bool = True) -> dict:
+    """Compare the mechanism at `path` with Cantera.
+
+    **Arguments:** `n_states` random states for the rates (T in 300-2500 K for a gas, 280-400 K
+    for a condensed phase; pressures 1e3-1e7 Pa); `case` (default: `default_case`) for the
+    constant-volume adiabatic ignition saved at `n_times` times; `sensitivities`: the `top`
+    largest d ln T / d ln A_i at the case's `sensitivity_time` (default: 0.9 x Cantera's delay).
+
+    **Returns:** a dictionary with "rates", and "ignition" / "sensitivities" (each with "skipped"
+    and the reason where they do not apply: a condensed phase, or no H2/O2 or CH4/O2 mixture).
+
+    **Raises:** `InputError` for a missing file, an unsupported mechanism, or bad options.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"mechanism file {str(path)!r} does not exist.")
+    check_range("n_states", n_states, 1)
+    check_range("top", top, 1)
+    mechanism = Mechanism.from_yaml(path, phase)
+    gas = mechanism.thermo_model == "ideal-gas"
+    stages = tqdm(total=3, desc=f"kinetics check {path.name}", disable=not progress)
+    temperatures = GAS_TEMPERATURES if gas else CONDENSED_TEMPERATURES
+    rates = compare_rates(mechanism, path, phase, n_states=n_states, seed=seed, temperature=temperatures)
+    result = {
+        "mechanism": str(path), "phase": phase, "thermo": mechanism.thermo_model,
+        "n_species": mechanism.n_species, "n_reactions": mechanism.n_reactions,
+        "rates": {**rates._asdict(), "temperature_range_K": list(temperatures)},
+    }
+    stages.update()
+    case = default_case(mechanism, path) if case is None else case
+    reason = (None if gas and case is not None else
+              "a condensed phase: Cantera runs it only at constant pressure" if not gas else
+              "no H2/O2 or CH4/O2 in the mechanism; give a mixture")
+    if not ignition or reason:
+        result["ignition"] = {"skipped": reason or "not asked for"}
+        result["sensitivities"] = {"skipped": reason or "needs the ignition"}
+        stages.close()
+        return result
+    times = np.linspace(0.0, case.end_time, n_times)
+    reference = cantera_ignition(path, case, times, phase=phase)
+    concentrations = initial_concentrations(path, case, phase)
+    ours = solve_ignition(mechanism, concentrations, case, times)
+    result["ignition"] = {
+        "case": {key: (value if value == value else None) for key, value in case._asdict().items()},
+        "delay_s": ours.delay, "cantera_delay_s": reference.delay,
+        "delay_relative_error": abs(ours.delay / reference.delay - 1),
+        "temperature_max_relative_error": float(np.max(np.abs(ours.temperature / reference.temperature - 1))),
+        "steps": ours.steps, "cantera_steps": reference.steps,
+        "definition": "first time T reaches T0 + 400 K, bisected on each solver's interpolant",
+    }
+    stages.update()
+    if not sensitivities:
+        result["sensitivities"] = {"skipped": "not asked for"}
+        stages.close()
+        return result
+    time = case.sensitivity_time if np.isfinite(case.sensitivity_time) else 0.9 * reference.delay
+    ours_sensitivity, _ = temperature_sensitivities(mechanism, jnp.asarray(concentrations), case, time,
+                                                    _SENSITIVITY_SETTINGS)
+    cantera_sensitivity, _ = cantera_sensitivities(path, case, time, phase=phase)
+    comparison = compare_sensitivities(ours_sensitivity, cantera_sensitivity, top=min(top, mechanism.n_reactions))
+    result["sensitivities"] = {
+        "quantity": "d ln T(t) / d ln A_i", "time_s": time,
+        "max_relative_difference": comparison.max_relative_difference, "same_ranking": comparison.same_ranking,
+        "top": [{"reaction": int(i), "equation": mechanism.reaction_equations[i], "ours": float(a),
+                 "cantera": float(b)} for i, a, b in zip(comparison.indices, comparison.ours, comparison.cantera,
+                                                         strict=True)],
+    }
+    stages.update()
+    stages.close()
+    return result
+
+
+def summary(result: dict) -> str:
+    """A few lines for the terminal."""
+    rates = result["rates"]
+    lines = [f"{result['mechanism']}: {result['n_species']} species, {result['n_reactions']} reactions ({result['thermo']})",
+             f"  rates at {rates['n_states']} random states: max relative error {rates['net_production']:.2e} (net "
+             f"production), {rates['rates_of_progress']:.2e} (rates of progress)"]
+    ignition = result["ignition"]
+    if "skipped" in ignition:
+        lines.append(f"  ignition: skipped ({ignition['skipped']})")
+    else:
+        lines.append(f"  ignition delay {ignition['delay_s'] * 1e3:.6f} ms vs Cantera {ignition['cantera_delay_s'] * 1e3:.6f} "
+                     f"ms: relative error {ignition['delay_relative_error']:.2e}; T history "
+                     f"{ignition['temperature_max_relative_error']:.2e}")
+    sensitivity = result["sensitivities"]
+    if "skipped" not in sensitivity:
+        lines.append(f"  top {len(sensitivity['top'])} d ln T / d ln A at {sensitivity['time_s'] * 1e3:.4f} ms: max "
+                     f"relative difference {sensitivity['max_relative_difference']:.2e}, same ranking: "
+                     f"{sensitivity['same_ranking']}")
+    return "\n".join(lines)
