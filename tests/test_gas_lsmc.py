@@ -90,6 +90,21 @@ def test_lsmc_honours_ratchets_and_the_terminal_requirement_under_volatility():
     assert np.all(np.asarray(schedule.inventory[:, -1]) >= float(inputs.terminal_inventory_min) - 1e-6)
 
 
+def test_split_policy_trades_bang_bang_when_hard_and_smoothly_when_training():
+    inputs = bdj_inputs(BDJ_VOLATILITY["high"])
+    scene = gs.stochastic_scene()
+    policy = gs.make_policy(scene, inputs, key=jax.random.key(3), split_actions=True, spot_scale=0.3)
+    shocks = jax.random.normal(jax.random.key(4), (8, inputs.n_days))
+    hard = gs.simulate(policy, inputs, scene, sharpness=None, shocks=shocks)
+    # Every bound on bdj (rates, capacity, the floor) is a multiple of 2,500 MWh, so is every flow.
+    steps = (np.asarray(hard.withdrawal) - np.asarray(hard.injection)) / 2_500
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)
+    assert constraint_violation(hard, inputs, 1.0) <= 1e-6 * 250_000
+    smooth = gs.simulate(policy, inputs, scene, sharpness=200.0, shocks=shocks)
+    steps = (np.asarray(smooth.withdrawal) - np.asarray(smooth.injection)) / 2_500
+    assert np.max(np.abs(steps - np.round(steps))) > 0.1  # partial trades: differentiable
+
+
 @pytest.mark.parametrize("nodes, degree, message", [
     (1, 3, r"nodes = 1.0 is outside the allowed range \[2, 100000\]"),
     (100, 3, r"initial_inventory = 100000 is not on the grid of nodes = 100"),
@@ -107,8 +122,9 @@ def test_cli_gas_lsmc_writes_both_methods_on_the_same_paths(tmp_path):
 
     out = tmp_path / "bdj.json"
     assert main(["gas", "--sample", "bdj", "--stochastic", "--volatility", str(BDJ_VOLATILITY["high"]),
-                 "--mean-reversion", str(BDJ_MEAN_REVERSION), "--paths", "200", "--train-paths", "64",
-                 "--train-steps", "40", "--lsmc", "--foresight-paths", "20", "--json", str(out)]) == 0
+                 "--mean-reversion", str(BDJ_MEAN_REVERSION), "--paths", "64", "--train-paths", "32",
+                 "--train-steps", "30", "--split-actions", "--bump", "--lsmc", "--foresight-paths", "16",
+                 "--json", str(out)]) == 0
     result = json.loads(out.read_text())
     for key in ("lsmc_in_sample", "lsmc_out_of_sample", "lsmc_se", "snapo_out_of_sample", "snapo_se",
                 "perfect_foresight", "lsmc_fit_seconds", "snapo_seconds", "train_seconds", "gradient_seconds"):
@@ -116,7 +132,10 @@ def test_cli_gas_lsmc_writes_both_methods_on_the_same_paths(tmp_path):
     assert result["snapo_out_of_sample"] == pytest.approx(result["value_hard"], rel=1e-12)
     assert result["lsmc_out_of_sample"] < result["perfect_foresight"]
     assert result["snapo_out_of_sample"] < result["perfect_foresight"]
-    assert result["paths"] == 200 and len(result["deltas"]) == 365
+    assert result["paths"] == 64 and len(result["deltas"]) == 365
+    # The split policy's deltas (one reverse pass) against central bumps with the same random numbers.
+    assert result["max_diff_over_max_delta"] <= 1e-6
+    assert result["max_constraint_violation"] <= 1e-6 * 250_000
 
 
 def test_cli_lsmc_without_stochastic_is_refused(tmp_path, capsys):

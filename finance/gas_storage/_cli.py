@@ -25,6 +25,8 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--train-steps", type=int, default=1500)
     parser.add_argument("--sharpness", type=float, default=200.0,
                         help="smoothing sharpness (gap about log(2)/sharpness of a day's maximum flow)")
+    parser.add_argument("--split-actions", action="store_true", help="policy with separate inject and withdraw "
+                        "scores, bang-bang in the hard evaluation (see make_policy)")
     parser.add_argument("--bump", action="store_true", help="also run central bump-and-revalue of the deltas")
 
 
@@ -46,7 +48,7 @@ def study_from_args(args):
     inputs = gs.make_inputs(facility, curve, volatility=volatility, mean_reversion=mean_reversion)
     settings = StudySettings(stochastic=args.stochastic, paths=args.paths, train_paths=args.train_paths,
                              seed=args.seed, train_steps=args.train_steps, sharpness=args.sharpness,
-                             bump=args.bump)
+                             split_actions=args.split_actions, bump=args.bump)
     return inputs, settings
 
 

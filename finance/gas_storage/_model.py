@@ -118,19 +118,30 @@ def policy_features(calendar, fill, headroom, log_spot_ratio, price, scene: Scen
     return jnp.concatenate(features)
 
 
+# The split policy's scores are learned at any scale, so this only sets how soft training starts.
+SCORE_SHARPNESS = 1.0
+
+
 def make_policy(scene: Scene, inputs: StorageInputs, *, key, width: int = 32, depth: int = 2,
-                spot_scale: float = 1.0) -> MLPPolicy:
-    """A policy with actions in [-1, 1] (withdraw all ... inject all). In stochastic mode the
-    spot features are normalised by `spot_scale` (the factor's stationary standard deviation)
-    around the training curve's mean log price (fixed at creation, not traced)."""
+                spot_scale: float = 1.0, split_actions: bool = False) -> MLPPolicy:
+    """A policy with one action in [-1, 1] (withdraw all ... inject all), or with
+    `split_actions` two scores s_in, s_out: the request is step(s_in) times the largest injection
+    less step(s_out) times the largest withdrawal, with the logistic step when training and the
+    exact one in the hard evaluation, so the reported policy trades bang-bang (inject fully,
+    withdraw fully or hold), as the optimal and the LSMC policies do. In
+    stochastic mode the spot features are normalised by `spot_scale` (the factor's stationary
+    standard deviation) around the training curve's mean log price (fixed at creation, not
+    traced)."""
     n_day_features = 3 + 2 * HARMONICS
+    actions = {} if split_actions else dict(action_low=-1.0, action_high=1.0)
+    n_actions = 2 if split_actions else 1
     if not scene.has("stochastic_spot"):
-        return MLPPolicy(n_day_features, 1, key=key, width=width, depth=depth, action_low=-1.0, action_high=1.0)
+        return MLPPolicy(n_day_features, n_actions, key=key, width=width, depth=depth, **actions)
     mean_log_price = float(jnp.mean(jnp.log(inputs.forward_curve)))
     offset = jnp.zeros(n_day_features + 2).at[-1].set(mean_log_price)
     scale = jnp.ones(n_day_features + 2).at[-2:].set(spot_scale)
-    return MLPPolicy(n_day_features + 2, 1, key=key, width=width, depth=depth, feature_offset=offset,
-                     feature_scale=scale, action_low=-1.0, action_high=1.0)
+    return MLPPolicy(n_day_features + 2, n_actions, key=key, width=width, depth=depth, feature_offset=offset,
+                     feature_scale=scale, **actions)
 
 
 def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices: jax.Array,
@@ -157,8 +168,12 @@ def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices
         upper = kept * max_in
         lower = smooth.minimum(smooth.maximum(-max_out, floor_tomorrow - inventory, flow_k), upper, flow_k)
         headroom = (inventory - floor_tomorrow) / inputs.capacity
-        action = policy(policy_features(calendar, fill, headroom, spot_ratio, price, scene))[0]
-        request = smooth.relu(action, sharpness) * upper - smooth.relu(-action, sharpness) * max_out
+        action = policy(policy_features(calendar, fill, headroom, spot_ratio, price, scene))
+        if action.shape[0] == 2:  # split: inject and withdraw scores, a smooth step when training
+            inject, withdraw = smooth.step(action, None if sharpness is None else SCORE_SHARPNESS)
+            request = inject * upper - withdraw * max_out
+        else:
+            request = smooth.relu(action[0], sharpness) * upper - smooth.relu(-action[0], sharpness) * max_out
         net = smooth.clip(request, lower, upper, flow_k)
         injection = smooth.relu(net, flow_k) / kept
         withdrawal = smooth.relu(-net, flow_k)

@@ -23,8 +23,9 @@ class StudySettings:
     the evaluation, drawn fresh, common to the value, the adjoint and the bumps);
     `train_paths` (paths drawn anew at every training step); `seed`; `train_steps`; `learning_rate`;
     `sharpness` (dimensionless smoothing sharpness; gaps are about log(2)/sharpness of a day's
-    maximum flow); `bump` (also run central bump-and-revalue on the 365 deltas); `repeats`
-    (timed runs per median); `progress` (show a progress bar)."""
+    maximum flow); `split_actions` and `width` (of the policy, see `make_policy`); `bump` (also
+    run central bump-and-revalue on the 365 deltas); `repeats` (timed runs per median);
+    `progress` (show a progress bar)."""
 
     stochastic: bool = False
     paths: int = 1000
@@ -33,6 +34,8 @@ class StudySettings:
     train_steps: int = 1500
     learning_rate: float = 1e-2
     sharpness: float = 200.0
+    split_actions: bool = False
+    width: int = 32
     bump: bool = False
     repeats: int = 5
     progress: bool = True
@@ -104,7 +107,8 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> tuple[dict, MLP
         eval_shocks = evaluation_shocks(settings, inputs.n_days)
         kappa = max(float(inputs.mean_reversion), 1e-6)
         spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
-    policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale)
+    policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale, split_actions=settings.split_actions,
+                         width=settings.width)
     scale = float(inputs.capacity * jnp.mean(inputs.forward_curve))
     sharpness = settings.sharpness
 
