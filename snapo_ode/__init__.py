@@ -14,6 +14,11 @@ from ._effects import (  # noqa: E402
     count_operations as count_operations,
 )
 from . import smooth as smooth  # noqa: E402
+from ._ode import (  # noqa: E402
+    SolverFailed as SolverFailed,
+    diffeqsolve_checked as diffeqsolve_checked,
+    raise_if_failed as raise_if_failed,
+)
 from ._io import (  # noqa: E402
     atomic_write_bytes as atomic_write_bytes,
     atomic_write_json as atomic_write_json,

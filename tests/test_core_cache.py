@@ -1,20 +1,40 @@
-"""The persistent compilation cache: a second process compiles nothing it compiled before."""
+"""The persistent compilation cache: a second process compiles nothing it compiled before,
+including a stiff ODE solve whose failure check (`on_failure="nan"`) leaves no host callback in
+the program. (A derivative through an implicit solve does hold callbacks, from the error checks
+of optimistix's implicit-function linear solve, and is compiled again in each process: see
+docs/chemistry.md.)
+
+Compiles are counted as JAX's backend-compile events (one per program, compiled or loaded) less
+its cache hits, not as cache misses: a program that holds a host callback (e.g.
+`equinox.error_if`) is neither looked up nor stored, so it raises no miss event and yet is
+compiled again in every process."""
 
 import os
 import subprocess
 import sys
 
 SCRIPT = """
-import jax, jax.numpy as jnp
-misses = []
+import jax, jax.numpy as jnp, diffrax
+from jax._src.dispatch import BACKEND_COMPILE_EVENT
+programs, hits = [], []
+jax.monitoring.register_event_duration_secs_listener(
+    lambda event, duration, **kw: programs.append(event) if event == BACKEND_COMPILE_EVENT else None)
 jax.monitoring.register_event_listener(
-    lambda event, **kw: misses.append(event) if event.endswith("cache_misses") else None)
+    lambda event, **kw: hits.append(event) if event.endswith("cache_hits") else None)
 import snapo_ode
 print(snapo_ode.CACHE_DIR)
 f = jax.jit(lambda x: jnp.sin(x) @ jnp.cos(x).T + 1.2345)
 f(jnp.ones((3, 3))).block_until_ready()
 jax.jit(jax.grad(lambda x: jnp.sum(jnp.tanh(x) ** 3)))(jnp.ones(4)).block_until_ready()
-print("misses", len(misses))
+
+def decay(k):
+    return snapo_ode.diffeqsolve_checked(
+        diffrax.ODETerm(lambda t, y, k: -k * y), diffrax.Kvaerno3(), 0.0, 1.0, None, jnp.ones(2), k,
+        stepsize_controller=diffrax.PIDController(rtol=1e-6, atol=1e-9), on_failure="nan").ys[-1].sum()
+
+out = jax.jit(decay)(jnp.array([1.0, 1e4]))
+snapo_ode.raise_if_failed(out)
+print("compiles", len(programs) - len(hits))
 """
 
 
@@ -25,9 +45,9 @@ def run(cache_dir):
     return lines[0], int(lines[1].split()[1])
 
 
-def test_second_process_hits_the_cache(tmp_path):
-    first_dir, first_misses = run(tmp_path / "cache")
-    second_dir, second_misses = run(tmp_path / "cache")
+def test_second_process_compiles_nothing(tmp_path):
+    first_dir, first_compiles = run(tmp_path / "cache")
+    second_dir, second_compiles = run(tmp_path / "cache")
     assert first_dir == second_dir == str(tmp_path / "cache")
-    assert first_misses >= 2
-    assert second_misses == 0
+    assert first_compiles >= 3
+    assert second_compiles == 0
