@@ -1,0 +1,119 @@
+"""Neural temperature profiles: an MLP jacket profile for R1 and an MLP deviation from the linear
+cooling ramp of the crystallizer, trained to maximise the API yield with the CQA specs as smooth
+penalties, then evaluated with hard spec checks."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from snapo_ode import MLPPolicy, train
+
+from ._chain import PharmaChain
+from ._cqa import cqa_dict, cqa_vector, meets_specs, spec_margins, spec_penalty
+from ._parameters import CPP_RANGES, CPPs, PhysicalParameters, default_physical_parameters
+from ._profiles import AbstractTemperatureProfile, NeuralTemperature
+
+
+class NeuralCooling(AbstractTemperatureProfile):
+    """T(s) = start + (end - start) s + 4 s (1 - s) `amplitude` tanh(MLP(s)) [K]: the linear
+    ramp's end points are kept (not trained), the path between them is learned (within
+    +-`amplitude`)."""
+
+    policy: MLPPolicy
+    start: jax.Array
+    end: jax.Array
+    amplitude: float = eqx.field(static=True)
+
+    def __call__(self, s):
+        deviation = jnp.tanh(self.policy(jnp.reshape(s, (1,)))[0])
+        start, end = jax.lax.stop_gradient(self.start), jax.lax.stop_gradient(self.end)
+        return start + (end - start) * s + 4 * s * (1 - s) * self.amplitude * deviation
+
+
+class Profiles(eqx.Module):
+    """The trainable profiles: `r1_jacket` (`NeuralTemperature` within R1's proven acceptable
+    range) and `cooling` (`NeuralCooling`)."""
+
+    r1_jacket: NeuralTemperature
+    cooling: NeuralCooling
+
+
+def make_profiles(physical: PhysicalParameters, *, key, width: int = 16, amplitude: float = 5.0) -> Profiles:
+    r1 = CPP_RANGES[0]
+    r1_key, cooling_key = jax.random.split(key)
+    jacket = NeuralTemperature(MLPPolicy(1, 1, key=r1_key, width=width, depth=2, action_low=r1.par[0],
+                                         action_high=r1.par[1], feature_offset=0.5, feature_scale=0.5))
+    cooling = NeuralCooling(MLPPolicy(1, 1, key=cooling_key, width=width, depth=2, feature_offset=0.5,
+                                      feature_scale=0.5), physical.hold_temperature, physical.final_temperature,
+                            amplitude)
+    return Profiles(jacket, cooling)
+
+
+def profile_objective(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, penalty_weight: float,
+                      sharpness: float):
+    """profiles -> (loss, metrics): loss = -yield / 100 + penalty_weight * smooth spec penalty."""
+
+    def loss(profiles: Profiles):
+        result = chain.simulate(cpps, None, physical, r1_jacket=profiles.r1_jacket, cooling=profiles.cooling)
+        cqas = cqa_vector(result)
+        penalty = spec_penalty(cqas, sharpness)
+        return -result.api_yield / 100 + penalty_weight * penalty, {"value": result.api_yield, "penalty": penalty}
+
+    return loss
+
+
+def constant_profiles(profiles: Profiles) -> Profiles:
+    """The baseline as the same structure: last layers zeroed, so the R1 jacket sits at the middle
+    of its PAR (= the nominal r1_temperature) and the cooling is the linear ramp, exactly."""
+
+    def zero_last(policy: MLPPolicy) -> MLPPolicy:
+        last = policy.mlp.layers[-1]
+        return eqx.tree_at(lambda p: (p.mlp.layers[-1].weight, p.mlp.layers[-1].bias), policy,
+                           (jnp.zeros_like(last.weight), jnp.zeros_like(last.bias)))
+
+    return eqx.tree_at(lambda p: (p.r1_jacket.policy, p.cooling.policy), profiles,
+                       (zero_last(profiles.r1_jacket.policy), zero_last(profiles.cooling.policy)))
+
+
+@eqx.filter_jit
+def _simulate_with(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, profiles: Profiles):
+    result = chain.simulate(cpps, None, physical, r1_jacket=profiles.r1_jacket, cooling=profiles.cooling)
+    return result.api_yield, cqa_vector(result)
+
+
+def evaluate_hard(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, profiles: Profiles, *,
+                  penalty_weight: float, sharpness: float) -> dict:
+    """The yield with hard spec checks (each CQA against its limits), next to the smooth objective
+    the training saw; `gap` = yield - smooth objective (the penalty's share)."""
+    api_yield, cqas = _simulate_with(chain, cpps, physical, profiles)
+    smooth = float(api_yield) - 100 * penalty_weight * float(spec_penalty(cqas, sharpness))
+    return {"api_yield": float(api_yield), "cqas": cqa_dict(cqas),
+            "meets_all_specs": bool(meets_specs(cqas)),
+            "spec_margins": dict(zip(cqa_dict(cqas), map(float, spec_margins(cqas)), strict=True)),
+            "smooth_objective": smooth, "gap": float(api_yield) - smooth}
+
+
+def train_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters | None = None, *, steps: int = 60,
+                   learning_rate: float = 3e-2, penalty_weight: float = 1.0, sharpness: float = 50.0, seed: int = 0,
+                   progress: bool = True) -> tuple[dict, Profiles]:
+    """Train both profiles; returns the study (baseline = the R1 jacket constant at the middle of
+    its PAR and the linear cooling ramp; and the trained profiles; both evaluated hard) and the
+    profiles."""
+    physical = default_physical_parameters() if physical is None else physical
+    profiles = make_profiles(physical, key=jax.random.key(seed))
+    loss = profile_objective(chain, cpps, physical, penalty_weight=penalty_weight, sharpness=sharpness)
+    trained = train(loss, profiles, steps=steps, learning_rate=learning_rate, progress=progress,
+                    description="pharma profiles")
+    settings = dict(penalty_weight=penalty_weight, sharpness=sharpness)
+    samples = jnp.linspace(0.0, 1.0, 11)
+    study = {
+        "baseline": evaluate_hard(chain, cpps, physical, constant_profiles(profiles), **settings),
+        "trained": evaluate_hard(chain, cpps, physical, trained.params, **settings),
+        "r1_jacket_profile": [float(trained.params.r1_jacket(s)) for s in samples],
+        "cooling_profile": [float(trained.params.cooling(s)) for s in samples],
+        "profile_times": [float(s) for s in samples],
+        "train_steps": trained.steps_run, "train_seconds": trained.seconds,
+        "compile_seconds": trained.compile_seconds, "loss_history": trained.history.get("loss", []),
+        **settings,
+    }
+    return study, trained.params
