@@ -143,3 +143,16 @@ def test_bad_input_names_the_field(tmp_path):
     lacking.write_text(text.replace("- equation: P => D\n  rate-constant: {A: 5.0e+10, b: 0.0, Ea: 110.0}\n", ""))
     with pytest.raises(snapo_ode.InputError, match="species 'D'"):
         PharmaChain(Mechanism.from_yaml(lacking))
+
+
+def test_a_failed_solve_raises_with_advice_either_way(physical):
+    temperature = jnp.asarray(321.0)
+    raising = ChainSolver(max_steps=2)
+    with pytest.raises(Exception, match="max_steps"):
+        jax.block_until_ready(Dryer(True)(jnp.asarray(0.3), jnp.asarray(0.99), temperature, physical, raising))
+    # Cacheable: no callback in the program; the NaN mark is turned into the error on the host.
+    marked = eqx.filter_jit(Dryer(True))(jnp.asarray(0.3), jnp.asarray(0.99), temperature, physical,
+                                         raising.cacheable())
+    assert np.isnan(float(marked.solvent))
+    with pytest.raises(snapo_ode.SolverFailed, match="max_steps"):
+        snapo_ode.raise_if_failed(marked)

@@ -12,7 +12,7 @@ from snapo_ode import check_choice, check_range, flatten_inputs
 from ._chain import PharmaChain
 from ._cqa import meets_specs
 from ._parameters import CPP_NAMES, CPP_RANGES, CPPs
-from ._sensitivities import _bumped_cqas, chain_inputs, jacobian_function
+from ._sensitivities import bumped_cqas, chain_inputs, jacobian_function
 
 
 def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y: str = "dryer_temperature",
@@ -52,7 +52,7 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
             block = np.tile(base, (samples, 1))
             block[:, first_rate:first_rate + n_reactions] += draws
             shifts.append(block)
-    cqas = np.asarray(_bumped_cqas(chain, inputs, jnp.asarray(np.concatenate(shifts))))
+    cqas = bumped_cqas(chain, inputs, np.concatenate(shifts))
     cqas = cqas.reshape(points, points, samples, -1)
     probability_mc = np.asarray(meets_specs(cqas)).mean(axis=-1)
 

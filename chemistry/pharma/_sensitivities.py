@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from chemistry import RateParameters
-from snapo_ode import choose_mode, flatten_inputs, jacobian, time_function
+from snapo_ode import choose_mode, flatten_inputs, jacobian, raise_if_failed, time_function
 
 from ._chain import PharmaChain
 from ._cqa import cqa_vector
@@ -71,9 +71,16 @@ def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
     """A jitted function of the inputs -> (CQAs (5,), Jacobian (5, n)), with the chain's adjoint
     set for `mode` ("reverse": 5 vmapped vjp passes; "forward": n vmapped jvp tangents). With
     `with_parameters=False`, n = 4 (the CPPs). One compiled program per (scene, solver, mode)
-    is shared by every caller in the process."""
-    chain = chain.with_solver(chain.solver.with_differentiation(mode))
-    return lambda inputs: _values_and_jacobian(chain, inputs, with_parameters, mode)
+    is shared by every caller in the process, and stored by the persistent compilation cache
+    (failures come back as NaN and raise `SolverFailed` here, on the host)."""
+    chain = chain.with_solver(chain.solver.with_differentiation(mode).cacheable())
+
+    def evaluate(inputs):
+        out = _values_and_jacobian(chain, inputs, with_parameters, mode)
+        raise_if_failed(out, "the chain's sensitivities")
+        return out
+
+    return evaluate
 
 
 def resolve_mode(mode: str, n_inputs: int) -> str:
@@ -100,7 +107,8 @@ def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto"
     reverse for 5 outputs and ~50 inputs: 5 passes)."""
     flat, _ = flatten_inputs(inputs)
     mode = resolve_mode(mode, flat.shape[0])
-    timing, (values, matrix) = time_function(jacobian_function(chain, True, mode), inputs, repeats=repeats)
+    evaluate = jacobian_function(chain, True, mode)
+    timing, (values, matrix) = time_function(evaluate, inputs, repeats=repeats)
     values, matrix = np.asarray(values), np.asarray(matrix)
     n_cpp = len(CPP_NAMES)
     cpp_values = np.asarray(flat[:n_cpp])
@@ -114,6 +122,14 @@ def _bumped_cqas(chain: PharmaChain, inputs: ChainInputs, bumps):
     flat, rebuild = flatten_inputs(inputs)
     evaluate = cqa_function(chain)
     return jax.vmap(lambda bump: evaluate(rebuild(flat + bump)))(bumps)
+
+
+def bumped_cqas(chain: PharmaChain, inputs: ChainInputs, bumps) -> np.ndarray:
+    """The CQAs at the flattened inputs + each row of `bumps` (shape (m, n)), in one vmapped,
+    cacheable call; shape (m, 5). Raises `SolverFailed` if any solve failed."""
+    out = np.asarray(_bumped_cqas(chain.with_solver(chain.solver.cacheable()), inputs, jnp.asarray(bumps)))
+    raise_if_failed(out, "the bumped chains")
+    return out
 
 
 def central_differences(chain: PharmaChain, inputs: ChainInputs, indices, *, relative_step: float = 1e-3):
@@ -130,7 +146,7 @@ def central_differences(chain: PharmaChain, inputs: ChainInputs, indices, *, rel
     bumps = np.zeros((n, flat.shape[0]))
     bumps[np.arange(n), indices] = steps
     bumps = np.concatenate([bumps, -bumps, bumps / 2, -bumps / 2])
-    up, down, half_up, half_down = np.split(np.asarray(_bumped_cqas(chain, inputs, jnp.asarray(bumps))), 4)
+    up, down, half_up, half_down = np.split(bumped_cqas(chain, inputs, bumps), 4)
     coarse = (up - down) / (2 * steps[:, None])
     fine = (half_up - half_down) / steps[:, None]
     return ((4 * fine - coarse) / 3).T
