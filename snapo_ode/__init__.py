@@ -16,6 +16,7 @@ from ._effects import (  # noqa: E402
 from . import smooth as smooth  # noqa: E402
 from ._ode import (  # noqa: E402
     SolverFailed as SolverFailed,
+    call_checked as call_checked,
     diffeqsolve_checked as diffeqsolve_checked,
     raise_if_failed as raise_if_failed,
 )

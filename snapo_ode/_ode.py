@@ -8,14 +8,21 @@ that contains a host callback (measured with jax 0.10.2), and `equinox.error_if`
   anywhere, but that program is compiled again in every new process.
 - `on_failure="nan"`: the failed solution's `ys` become NaN inside the program (no callback, so
   the program is cached), and the caller, which owns the `jax.jit`, must pass the outputs to
-  `raise_if_failed` on the host. Entry points that compile their own programs (CLI verbs,
-  studies, benchmarks) use this.
+  `raise_if_failed` on the host.
+
+A derivative through an implicit solver holds more callbacks than ours: lineax's check of the
+linear solve in optimistix's implicit-function rule (measured: the pharma chain's Jacobian was
+compiled again, 22 s, in every process). `call_checked` covers those too: it traces a jitted
+function with every equinox runtime check as a NaN mark, then raises on the host. Entry points
+that compile their own programs (CLI verbs, studies, benchmarks) call through it.
 """
 
+import contextlib
 from typing import Literal
 
 import diffrax
 import equinox as eqx
+import equinox._errors as equinox_errors
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -47,6 +54,33 @@ def raise_if_failed(outputs, what: str = "the computation") -> None:
         if not np.all(np.isfinite(np.asarray(leaf))):
             raise SolverFailed(f"{what} gave non-finite values: an ODE solve failed. Either "
                                + " Or ".join(_FAILURE_MESSAGES))
+
+
+@contextlib.contextmanager
+def _runtime_checks_as_nan():
+    # equinox reads this module global when it traces an `error_if` whose `on_error` is the
+    # default (as lineax's and optimistix's are); "nan" makes a failed check a NaN output
+    # instead of a host callback. Set only while tracing our own programs, then restored.
+    previous = equinox_errors.EQX_ON_ERROR
+    equinox_errors.EQX_ON_ERROR = "nan"
+    try:
+        yield
+    finally:
+        equinox_errors.EQX_ON_ERROR = previous
+
+
+def call_checked(fn, *args, what: str = "the computation", **kwargs):
+    """`fn(*args, **kwargs)` for a jitted `fn`, with every equinox runtime check in it (ours, and
+    those of lineax and optimistix inside derivatives of implicit solves) traced as a NaN mark
+    rather than a host callback, so that JAX's persistent compilation cache stores the program
+    and a second process does not compile it again.
+
+    **Returns:** the outputs. **Raises:** `SolverFailed` (via `raise_if_failed`, naming `what`)
+    if any output is not finite, which is how a failed check shows."""
+    with _runtime_checks_as_nan():
+        out = fn(*args, **kwargs)
+    raise_if_failed(out, what)
+    return out
 
 
 def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: bool = True,

@@ -1,8 +1,7 @@
 """The persistent compilation cache: a second process compiles nothing it compiled before,
 including a stiff ODE solve whose failure check (`on_failure="nan"`) leaves no host callback in
-the program. (A derivative through an implicit solve does hold callbacks, from the error checks
-of optimistix's implicit-function linear solve, and is compiled again in each process: see
-docs/chemistry.md.)
+the program, and its derivative through the implicit solver, whose linear-solve checks
+(lineax, in optimistix's implicit-function rule) `call_checked` traces as NaN marks.
 
 Compiles are counted as JAX's backend-compile events (one per program, compiled or loaded) less
 its cache hits, not as cache misses: a program that holds a host callback (e.g.
@@ -34,6 +33,7 @@ def decay(k):
 
 out = jax.jit(decay)(jnp.array([1.0, 1e4]))
 snapo_ode.raise_if_failed(out)
+snapo_ode.call_checked(jax.jit(jax.grad(decay)), jnp.array([1.0, 1e4]))
 print("compiles", len(programs) - len(hits))
 """
 

@@ -6,7 +6,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from snapo_ode import MLPPolicy, raise_if_failed, train
+from snapo_ode import MLPPolicy, call_checked, train
 
 from ._chain import PharmaChain
 from ._cqa import cqa_dict, cqa_vector, meets_specs, spec_margins, spec_penalty
@@ -85,8 +85,8 @@ def evaluate_hard(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, 
                   penalty_weight: float, sharpness: float) -> dict:
     """The yield with hard spec checks (each CQA against its limits), next to the smooth objective
     the training saw; `gap` = yield - smooth objective (the penalty's share)."""
-    api_yield, cqas = _simulate_with(chain.with_solver(chain.solver.cacheable()), cpps, physical, profiles)
-    raise_if_failed((api_yield, cqas), "the chain with the profiles")
+    api_yield, cqas = call_checked(_simulate_with, chain, cpps, physical, profiles,
+                                   what="the chain with the profiles")
     smooth = float(api_yield) - 100 * penalty_weight * float(spec_penalty(cqas, sharpness))
     return {"api_yield": float(api_yield), "cqas": cqa_dict(cqas),
             "meets_all_specs": bool(meets_specs(cqas)),

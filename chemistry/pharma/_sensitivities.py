@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from chemistry import RateParameters
-from snapo_ode import choose_mode, flatten_inputs, jacobian, raise_if_failed, time_function
+from snapo_ode import call_checked, choose_mode, flatten_inputs, jacobian, time_function
 
 from ._chain import PharmaChain
 from ._cqa import cqa_vector
@@ -72,15 +72,10 @@ def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
     set for `mode` ("reverse": 5 vmapped vjp passes; "forward": n vmapped jvp tangents). With
     `with_parameters=False`, n = 4 (the CPPs). One compiled program per (scene, solver, mode)
     is shared by every caller in the process, and stored by the persistent compilation cache
-    (failures come back as NaN and raise `SolverFailed` here, on the host)."""
-    chain = chain.with_solver(chain.solver.with_differentiation(mode).cacheable())
-
-    def evaluate(inputs):
-        out = _values_and_jacobian(chain, inputs, with_parameters, mode)
-        raise_if_failed(out, "the chain's sensitivities")
-        return out
-
-    return evaluate
+    (`snapo_ode.call_checked`: a failed solve raises `SolverFailed` here, on the host)."""
+    chain = chain.with_solver(chain.solver.with_differentiation(mode))
+    return lambda inputs: call_checked(_values_and_jacobian, chain, inputs, with_parameters, mode,
+                                       what="the chain's sensitivities")
 
 
 def resolve_mode(mode: str, n_inputs: int) -> str:
@@ -127,9 +122,7 @@ def _bumped_cqas(chain: PharmaChain, inputs: ChainInputs, bumps):
 def bumped_cqas(chain: PharmaChain, inputs: ChainInputs, bumps) -> np.ndarray:
     """The CQAs at the flattened inputs + each row of `bumps` (shape (m, n)), in one vmapped,
     cacheable call; shape (m, 5). Raises `SolverFailed` if any solve failed."""
-    out = np.asarray(_bumped_cqas(chain.with_solver(chain.solver.cacheable()), inputs, jnp.asarray(bumps)))
-    raise_if_failed(out, "the bumped chains")
-    return out
+    return np.asarray(call_checked(_bumped_cqas, chain, inputs, jnp.asarray(bumps), what="the bumped chains"))
 
 
 def central_differences(chain: PharmaChain, inputs: ChainInputs, indices, *, relative_step: float = 1e-3):

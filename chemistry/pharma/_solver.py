@@ -26,10 +26,6 @@ class ChainSolver(eqx.Module):
     - `newton_rtol`, `newton_atol`: of the stage equations' Newton iteration (`optimistix.Newton`).
       Looser than the step's: Newton converges quadratically, and demanding 1e-10 of it on this
       stiff system (condition number ~ h * 4e5) meets round-off, fails and rejects steps.
-    - `on_failure`: "raise" (inside the program; never stored by the persistent compilation
-      cache) or "nan" (for entry points that own the jit and call `snapo_ode.raise_if_failed` on
-      the outputs, so that a second process reuses the compiled program); see
-      `snapo_ode._ode.diffeqsolve_checked`.
     - `solver`: "kvaerno5" (default), "kvaerno4" or "kvaerno3" (ESDIRK, L-stable).
     - `max_steps`: per unit; the solve raises with advice if it needs more.
     - `differentiation`: "reverse" (`RecursiveCheckpointAdjoint`, for vjp / grad) or "forward"
@@ -43,7 +39,6 @@ class ChainSolver(eqx.Module):
     differentiation: str = eqx.field(static=True, default="reverse")
     newton_rtol: float = eqx.field(static=True, default=1e-6)
     newton_atol: float = eqx.field(static=True, default=1e-9)
-    on_failure: str = eqx.field(static=True, default="raise")
 
     def __check_init__(self):
         check_range("rtol", self.rtol, 0.0, 1.0, low_open=True, high_open=True)
@@ -53,14 +48,9 @@ class ChainSolver(eqx.Module):
         check_choice("solver", self.solver, tuple(_SOLVERS))
         check_range("max_steps", self.max_steps, 1)
         check_choice("differentiation", self.differentiation, ("reverse", "forward"))
-        check_choice("on_failure", self.on_failure, ("raise", "nan"))
 
     def with_differentiation(self, mode: str) -> "ChainSolver":
         return dataclasses.replace(self, differentiation=mode)
-
-    def cacheable(self) -> "ChainSolver":
-        """The same settings with failures marked as NaN (for `raise_if_failed`), not raised."""
-        return dataclasses.replace(self, on_failure="nan")
 
     def as_dict(self) -> dict:
         return {"rtol": self.rtol, "atol": self.atol, "solver": self.solver, "max_steps": self.max_steps,
@@ -76,6 +66,5 @@ class ChainSolver(eqx.Module):
         solution = diffeqsolve_checked(
             diffrax.ODETerm(rhs), _SOLVERS[self.solver](root_finder=root_finder), 0.0, 1.0, None, y0, args,
             stepsize_controller=diffrax.PIDController(rtol=self.rtol, atol=self.atol),
-            saveat=diffrax.SaveAt(steps=steps, t1=not steps), max_steps=self.max_steps, adjoint=adjoint,
-            on_failure=self.on_failure)
+            saveat=diffrax.SaveAt(steps=steps, t1=not steps), max_steps=self.max_steps, adjoint=adjoint)
         return solution if steps else solution.ys[-1]
