@@ -236,8 +236,9 @@ def _pdf(report: dict, tornado_figure, design_figure) -> bytes:
                       f"PAR {c['par'][0]:g}-{c['par'][1]:g})" for c in report["cpps"]],
         SECTIONS[1]: [f"{s['name']}: {s['spec']}" for s in report["cqa_specs"]],
         SECTIONS[2]: [f"{name}: {value:.6g}" for name, value in study["cqas"].items()],
-        SECTIONS[3]: [f"{cqa}: " + ", ".join(f"{cpp} {study['matrix'][cqa][cpp]:.4g} ({study['normalized'][cqa][cpp]:.3g})"
-                                             for cpp in CPP_NAMES) for cqa in CQA_NAMES],
+        # One line per pair: five CPPs on one line ran off the page.
+        SECTIONS[3]: [f"d {cqa} / d {cpp}: {study['matrix'][cqa][cpp]:.4g} (normalised {study['normalized'][cqa][cpp]:.3g})"
+                      for cqa in CQA_NAMES for cpp in CPP_NAMES],
         SECTIONS[6]: [f"{k}: {v:.6g}" for k, v in verification.items()],
         SECTIONS[7]: [f"{k}: {v}" for k, v in report["solver"].items()],
         SECTIONS[8]: [f"{k}: {v}" for k, v in report["timings"].items()],
@@ -250,15 +251,20 @@ def _pdf(report: dict, tornado_figure, design_figure) -> bytes:
         figure = plt.figure(figsize=(8.27, 11.69))
         y = 0.97
         figure.text(0.05, y, "API manufacturing chain: ICH Q8 sensitivity report", fontsize=13, weight="bold")
-        for title, lines in blocks.items():
-            y -= 0.03
-            if y < 0.08:
+        def room_for(height):
+            nonlocal figure, y
+            if y - height < 0.05:
                 pdf.savefig(figure)
                 plt.close(figure)
-                figure, y = plt.figure(figsize=(8.27, 11.69)), 0.95
+                figure, y = plt.figure(figsize=(8.27, 11.69)), 0.97
+            y -= height
+
+        for title, lines in blocks.items():
+            room_for(0.03 + 0.018)  # a title never ends a page
+            y += 0.018
             figure.text(0.05, y, title, fontsize=11, weight="bold")
             for line in lines:
-                y -= 0.018
+                room_for(0.018)
                 figure.text(0.07, y, line, fontsize=6.5, family="monospace")
         pdf.savefig(figure)
         plt.close(figure)
