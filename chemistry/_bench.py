@@ -10,7 +10,11 @@ the chord root finder that `SolverSettings` uses by default for whole ignitions,
 stalls after the front). Why not through the front: the reverse pass there meets rejected
 steps whose stage Jacobian is singular, and the linear solve of the root finder's derivative
 fails (measured with the chord root finder at rtol 1e-8 and 1e-10); the forward solve itself
-is fine (`tests/test_ignition.py` matches Cantera's delay to 1e-4)."""
+is fine (`tests/test_ignition.py` matches Cantera's delay to 1e-4).
+
+gri30 is not in the default run: its forward solve to 1 ms works, but its reverse pass at these
+settings gives non-finite values (a root-finder derivative on a rejected step), so
+`--mechanisms gri30` ends in `SolverFailed` after about 20 minutes (measured 2026-11-23)."""
 
 import pathlib
 import statistics
@@ -97,7 +101,7 @@ COLUMNS = ("mechanism", "parameters", "end_time_s", "forward_s", "forward_compil
            "cantera_forward_s", "cantera_sensitivities_s", "gradient_speedup_vs_cantera_sensitivities")
 
 
-def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), repeats: int = 5) -> list[dict]:
+def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2",), repeats: int = 5) -> list[dict]:
     """Print the table and write `bench_kinetics.json` and `bench_kinetics.csv` under `out`."""
     rows = [benchmark_mechanism(name, repeats) for name in mechanisms]
     print(f"constant-volume adiabatic ignition to late induction, rtol {RTOL:g} / atol {ATOL:g} (Cantera's "
