@@ -9,8 +9,8 @@ h2o2: 270 steps and 0.43 s forward, 1.6 s gradient, against 1,163 steps, 0.69 s 
 the chord root finder that `SolverSettings` uses by default for whole ignitions, where Newton
 stalls after the front). Why not through the front: the reverse pass there meets rejected
 steps whose stage Jacobian is singular, and the linear solve of the root finder's derivative
-fails (measured with the chord root finder at rtol 1e-8 and 1e-10); the forward solve itself
-is fine (`tests/test_ignition.py` matches Cantera's delay to 1e-4).
+fails (measured with the chord root finder at rtol 1e-8); the forward solve itself is fine
+(`tests/test_ignition.py` matches Cantera's delay to 1e-4).
 
 gri30 is not in the default run: its forward solve to 1 ms works, but its reverse pass at these
 settings gives non-finite values (a root-finder derivative on a rejected step), so
