@@ -61,10 +61,16 @@ def _runtime_checks_as_nan():
     # equinox reads this module global when it traces an `error_if` whose `on_error` is the
     # default (as lineax's and optimistix's are); "nan" makes a failed check a NaN output
     # instead of a host callback. Set only while tracing our own programs, then restored.
+    # JAX caches traces by function, arguments and its trace context, not by this global, so
+    # the mode must also change the trace context: otherwise a trace made in one mode is reused
+    # in the other (measured: a plain call after a checked one returned NaN without raising).
+    # The matmul precision is part of that context; "highest" is what float64 on a CPU computes
+    # anyway.
     previous = equinox_errors.EQX_ON_ERROR
     equinox_errors.EQX_ON_ERROR = "nan"
     try:
-        yield
+        with jax.default_matmul_precision("highest"):
+            yield
     finally:
         equinox_errors.EQX_ON_ERROR = previous
 
@@ -76,7 +82,10 @@ def call_checked(fn, *args, what: str = "the computation", **kwargs):
     and a second process does not compile it again.
 
     **Returns:** the outputs. **Raises:** `SolverFailed` (via `raise_if_failed`, naming `what`)
-    if any output is not finite, which is how a failed check shows."""
+    if any output is not finite, which is how a failed check shows.
+
+    Traces made inside `call_checked` are kept apart from those made outside it (see
+    `_runtime_checks_as_nan`), so a plain call of the same function still raises."""
     with _runtime_checks_as_nan():
         out = fn(*args, **kwargs)
     raise_if_failed(out, what)
