@@ -1,25 +1,16 @@
 """`diffrax.diffeqsolve` that fails loudly: a solver failure raises with advice instead of
 returning NaNs or a truncated solution, and a stiff model refuses `BacksolveAdjoint`.
 
-Two ways to fail loudly, because JAX's persistent compilation cache does not store a program
-that contains a host callback (measured with jax 0.10.2), and `equinox.error_if` is one:
-
-- `on_failure="raise"` (default): `equinox.error_if` raises inside the compiled program. Safe
-  anywhere, but that program is compiled again in every new process.
-- `on_failure="nan"`: the failed solution's `ys` become NaN inside the program (no callback, so
-  the program is cached), and the caller, which owns the `jax.jit`, must pass the outputs to
-  `raise_if_failed` on the host.
-
-A derivative through an implicit solver holds more callbacks than ours: lineax's check of the
-linear solve in optimistix's implicit-function rule (measured: the pharma chain's Jacobian was
-compiled again, 22 s, in every process). `call_checked` covers those too: it traces a jitted
-function with every equinox runtime check as a NaN mark, then raises on the host. Entry points
-that compile their own programs (CLI verbs, studies, benchmarks) call through it.
+A failed solve is an `equinox.error_if` inside the program. That is a host callback, and JAX's
+persistent compilation cache never stores a program that holds one (measured with jax 0.10.2);
+nor does it store a derivative through an implicit solver, whose linear solves lineax checks the
+same way (measured: the pharma chain's Jacobian was compiled again, 22 s, in every process).
+`call_checked` traces a jitted function with every such check as a NaN mark and raises on the
+host instead, so its program is cached; entry points that compile their own programs (CLI
+verbs, studies, benchmarks) call through it.
 """
 
 import contextlib
-from typing import Literal
-
 import diffrax
 import equinox as eqx
 import equinox._errors as equinox_errors
@@ -27,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._validation import InputError, check_choice
+from ._validation import InputError
 
 _FAILURE_MESSAGES = (
     "the ODE solve reached max_steps before t1: raise max_steps, loosen rtol/atol, or check the "
@@ -39,17 +30,13 @@ _FAILURE_MESSAGES = (
 )
 
 
-OnFailure = Literal["raise", "nan"]
-
-
 class SolverFailed(RuntimeError):
     """An ODE solve failed (max_steps, step-size collapse, a diverged implicit solve)."""
 
 
 def raise_if_failed(outputs, what: str = "the computation") -> None:
     """Raise `SolverFailed` with advice if any leaf of `outputs` (concrete arrays, after the
-    compiled call returned) is not finite: the mark `diffeqsolve_checked(on_failure="nan")`
-    leaves of a failed solve."""
+    compiled call returned) is not finite: the mark a failed check leaves under `call_checked`."""
     for leaf in jax.tree.leaves(outputs):
         if not np.all(np.isfinite(np.asarray(leaf))):
             raise SolverFailed(f"{what} gave non-finite values: an ODE solve failed. Either "
@@ -92,23 +79,19 @@ def call_checked(fn, *args, what: str = "the computation", **kwargs):
     return out
 
 
-def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: bool = True,
-                        on_failure: OnFailure = "raise", **kwargs):
+def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: bool = True, **kwargs):
     """`diffrax.diffeqsolve(terms, solver, t0, t1, dt0, y0, args, **kwargs)` with checks.
 
     **Arguments:** as `diffrax.diffeqsolve` (without `throw`), and `stiff`: whether the model is
     stiff; then `adjoint=diffrax.BacksolveAdjoint(...)` is refused, because its backward solve
-    diverges on stiff problems (max_steps, or gradients near 1e297); `on_failure`: "raise"
-    (`equinox.error_if`) or "nan" (NaN `ys`, for the caller's `raise_if_failed`; see the module
-    docstring for why).
+    diverges on stiff problems (max_steps, or gradients near 1e297).
 
     **Returns:** the `diffrax.Solution`.
 
-    **Raises:** `InputError` for `throw`, an unknown `on_failure` or a backsolve adjoint on a
-    stiff model (before any compile); inside jit, with `on_failure="raise"`, an
-    `equinox.error_if` error with advice when the solve fails.
+    **Raises:** `InputError` for `throw` or a backsolve adjoint on a stiff model (before any
+    compile); inside jit, an `equinox.error_if` error with advice when the solve fails (under
+    `call_checked`: `SolverFailed`, on the host).
     """
-    check_choice("on_failure", on_failure, ("raise", "nan"))
     if "throw" in kwargs:
         raise InputError("throw is set by diffeqsolve_checked (failures always raise); remove it.")
     if stiff and isinstance(kwargs.get("adjoint"), diffrax.BacksolveAdjoint):
@@ -119,9 +102,6 @@ def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: boo
         )
     solution = diffrax.diffeqsolve(terms, solver, t0, t1, dt0, y0, args, throw=False, **kwargs)
     failed = solution.result != diffrax.RESULTS.successful
-    if on_failure == "nan":
-        ys = jax.tree.map(lambda y: jnp.where(failed, jnp.nan, y), solution.ys)
-        return eqx.tree_at(lambda s: s.ys, solution, ys)
     which = jnp.where(solution.result == diffrax.RESULTS.max_steps_reached, 0, 1)
     ys = eqx.branched_error_if(solution.ys, failed, which, _FAILURE_MESSAGES)
     return eqx.tree_at(lambda s: s.ys, solution, ys)

@@ -1,7 +1,7 @@
 """The persistent compilation cache: a second process compiles nothing it compiled before,
-including a stiff ODE solve whose failure check (`on_failure="nan"`) leaves no host callback in
-the program, and its derivative through the implicit solver, whose linear-solve checks
-(lineax, in optimistix's implicit-function rule) `call_checked` traces as NaN marks.
+including a checked stiff ODE solve and its derivative through the implicit solver, whose
+failure checks (ours, and lineax's in optimistix's implicit-function rule) `call_checked` traces
+as NaN marks rather than host callbacks.
 
 Compiles are counted as JAX's backend-compile events (one per program, compiled or loaded) less
 its cache hits, not as cache misses: a program that holds a host callback (e.g.
@@ -29,10 +29,9 @@ jax.jit(jax.grad(lambda x: jnp.sum(jnp.tanh(x) ** 3)))(jnp.ones(4)).block_until_
 def decay(k):
     return snapo_ode.diffeqsolve_checked(
         diffrax.ODETerm(lambda t, y, k: -k * y), diffrax.Kvaerno3(), 0.0, 1.0, None, jnp.ones(2), k,
-        stepsize_controller=diffrax.PIDController(rtol=1e-6, atol=1e-9), on_failure="nan").ys[-1].sum()
+        stepsize_controller=diffrax.PIDController(rtol=1e-6, atol=1e-9)).ys[-1].sum()
 
-out = jax.jit(decay)(jnp.array([1.0, 1e4]))
-snapo_ode.raise_if_failed(out)
+snapo_ode.call_checked(jax.jit(decay), jnp.array([1.0, 1e4]))
 snapo_ode.call_checked(jax.jit(jax.grad(decay)), jnp.array([1.0, 1e4]))
 print("compiles", len(programs) - len(hits))
 """

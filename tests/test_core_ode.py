@@ -1,5 +1,5 @@
-"""`diffeqsolve_checked`: a failed stiff solve raises with advice, in either failure mode, and
-never hands back a silent NaN or a truncated solution."""
+"""`diffeqsolve_checked`: a failed stiff solve raises with advice, inside the program or (through
+`call_checked`) on the host, and never hands back a silent NaN or a truncated solution."""
 
 import diffrax
 import equinox as eqx
@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from snapo_ode import InputError, SolverFailed, diffeqsolve_checked, raise_if_failed
+from snapo_ode import InputError, SolverFailed, call_checked, diffeqsolve_checked
 
 
 def _robertson(t, y, k):
@@ -19,11 +19,10 @@ def _robertson(t, y, k):
                       k[2] * b**2])
 
 
-def _solve(k, *, max_steps, on_failure="raise", t1=1e3):
+def _solve(k, *, max_steps, t1=1e3):
     solution = diffeqsolve_checked(
         diffrax.ODETerm(_robertson), diffrax.Kvaerno5(), 0.0, t1, None, jnp.array([1.0, 0.0, 0.0]), k,
-        stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-12), max_steps=max_steps,
-        on_failure=on_failure)
+        stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-12), max_steps=max_steps)
     return solution.ys[-1]
 
 
@@ -45,18 +44,20 @@ def test_max_steps_raises_with_advice_inside_jit():
         eqx.filter_jit(lambda k: _solve(k, max_steps=4))(K).block_until_ready()
 
 
-def test_nan_mode_marks_the_failure_and_the_host_check_raises_with_advice():
-    y = jax.jit(lambda k: _solve(k, max_steps=4, on_failure="nan"))(K)
-    assert np.all(np.isnan(np.asarray(y)))
+def test_through_call_checked_the_failure_raises_on_the_host_with_advice():
     with pytest.raises(SolverFailed, match="max_steps"):
-        raise_if_failed(y, "the Robertson solve")
-    good = jax.jit(lambda k: _solve(k, max_steps=4096, on_failure="nan"))(K)
-    raise_if_failed(good)  # nothing to report
+        call_checked(jax.jit(lambda k: _solve(k, max_steps=4)), K, what="the Robertson solve")
+    good = call_checked(jax.jit(lambda k: _solve(k, max_steps=4096)), K)
+    assert np.all(np.isfinite(np.asarray(good)))
+    # The same function outside call_checked still raises inside the program.
+    with pytest.raises(eqx.EquinoxRuntimeError, match="max_steps"):
+        eqx.filter_jit(lambda k: _solve(k, max_steps=4))(K).block_until_ready()
 
 
-def test_backsolve_and_unknown_modes_are_refused_before_compiling():
+def test_backsolve_and_throw_are_refused_before_compiling():
     with pytest.raises(InputError, match="BacksolveAdjoint"):
         diffeqsolve_checked(diffrax.ODETerm(_robertson), diffrax.Kvaerno5(), 0.0, 1.0, None,
                             jnp.array([1.0, 0.0, 0.0]), K, adjoint=diffrax.BacksolveAdjoint())
-    with pytest.raises(InputError, match="on_failure"):
-        _solve(K, max_steps=16, on_failure="ignore")
+    with pytest.raises(InputError, match="throw"):
+        diffeqsolve_checked(diffrax.ODETerm(_robertson), diffrax.Kvaerno5(), 0.0, 1.0, None,
+                            jnp.array([1.0, 0.0, 0.0]), K, throw=True)
