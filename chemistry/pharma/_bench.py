@@ -30,7 +30,8 @@ def run_pharma_benchmark(out: pathlib.Path, *, rtols, repeats: int) -> int:
     rows = []
     for rtol in rtols:
         chain = base.with_solver(ChainSolver(rtol=rtol, atol=rtol / 100))
-        cqas = jax.jit(lambda inputs, chain=chain: cqa_vector(chain.simulate(inputs.cpps, inputs.rates, inputs.physical)))
+        cqas = jax.jit(lambda inputs, chain=chain: cqa_vector(
+            chain.simulate(inputs.cpps, inputs.rates, inputs.physical)))
         value_timing, _ = time_function(lambda inputs: call_checked(cqas, inputs, what="the chain"), inputs,
                                         repeats=repeats)
         for mode in ("reverse", "forward"):

@@ -237,7 +237,8 @@ def _pdf(report: dict, tornado_figure, design_figure) -> bytes:
         SECTIONS[1]: [f"{s['name']}: {s['spec']}" for s in report["cqa_specs"]],
         SECTIONS[2]: [f"{name}: {value:.6g}" for name, value in study["cqas"].items()],
         # One line per pair: five CPPs on one line ran off the page.
-        SECTIONS[3]: [f"d {cqa} / d {cpp}: {study['matrix'][cqa][cpp]:.4g} (normalised {study['normalized'][cqa][cpp]:.3g})"
+        SECTIONS[3]: [f"d {cqa} / d {cpp}: {study['matrix'][cqa][cpp]:.4g} "
+                      f"(normalised {study['normalized'][cqa][cpp]:.3g})"
                       for cqa in CQA_NAMES for cpp in CPP_NAMES],
         SECTIONS[6]: [f"{k}: {v:.6g}" for k, v in verification.items()],
         SECTIONS[7]: [f"{k}: {v}" for k, v in report["solver"].items()],

@@ -102,8 +102,7 @@ def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto"
     reverse for 5 outputs and ~50 inputs: 5 passes)."""
     flat, _ = flatten_inputs(inputs)
     mode = resolve_mode(mode, flat.shape[0])
-    evaluate = jacobian_function(chain, True, mode)
-    timing, (values, matrix) = time_function(evaluate, inputs, repeats=repeats)
+    timing, (values, matrix) = time_function(jacobian_function(chain, True, mode), inputs, repeats=repeats)
     values, matrix = np.asarray(values), np.asarray(matrix)
     n_cpp = len(CPP_NAMES)
     cpp_values = np.asarray(flat[:n_cpp])
