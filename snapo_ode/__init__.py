@@ -20,6 +20,7 @@ from ._ode import (  # noqa: E402
     diffeqsolve_checked as diffeqsolve_checked,
     raise_if_failed as raise_if_failed,
 )
+from ._rosenbrock import Rodas4 as Rodas4  # noqa: E402
 from ._io import (  # noqa: E402
     atomic_write_bytes as atomic_write_bytes,
     atomic_write_json as atomic_write_json,
