@@ -4,17 +4,11 @@ the case's sensitivity time (late in the induction: h2o2 0.27 ms, gri30 1.0 ms, 
 gradient of T there with respect to every reaction's A-factor (one reverse pass), Cantera's
 integration and Cantera's integration with forward sensitivities to every reaction switched on.
 
-Our solver here: Kvaerno5 with the Newton root finder at rtol 1e-10 / atol 1e-14 (measured on
-h2o2: 270 steps and 0.43 s forward, 1.6 s gradient, against 1,163 steps, 0.69 s and 4.3 s with
-the chord root finder that `SolverSettings` uses by default for whole ignitions, where Newton
-stalls after the front). Why not through the front: the reverse pass there meets rejected
-steps whose stage Jacobian is singular, and the linear solve of the root finder's derivative
-fails (measured with the chord root finder at rtol 1e-8); the forward solve itself is fine
-(`tests/test_ignition.py` matches Cantera's delay to 1e-4).
-
-gri30 is not in the default run: its forward solve to 1 ms works, but its reverse pass at these
-settings gives non-finite values (a root-finder derivative on a rejected step), so
-`--mechanisms gri30` ends in `SolverFailed` after about 20 minutes (measured 2026-11-23)."""
+Our solver here: `snapo_ode.Rodas4` (Rosenbrock: one Jacobian, from the mechanism's closed-form
+concentration Jacobian, and one LU a step) at the same rtol 1e-10 / atol 1e-14, with a checkpoint
+at every step for the reverse pass. Kvaerno5 (ESDIRK, a Newton iteration per stage) was 4x slower
+forward and its reverse pass failed on gri30 (the root finder's implicit derivative on a rejected
+step, after ~20 minutes); docs/chemistry.md has those figures."""
 
 import pathlib
 import statistics
@@ -35,6 +29,8 @@ RTOL, ATOL = 1e-10, 1e-14
 """The tolerances of both solvers (ours on [T/T0, N_k/N0]; Cantera's on [m, V, T, Y_k])."""
 SENSITIVITY_TOLERANCE = 1e-6
 """Cantera's sensitivity rtol and atol: where its h2o2 sensitivities agree with its own bumps."""
+MAX_STEPS = 4000
+"""Per solve (gri30 takes ~1,200 at these tolerances); also the reverse pass's checkpoints."""
 CANTERA_SENSITIVITY_REPEATS = {"h2o2": 3, "gri30": 1}  # gri30 with 325 sensitivities: seconds a run
 
 
@@ -67,7 +63,7 @@ def benchmark_mechanism(name: str, repeats: int) -> dict:
     case = IGNITION_CASES[name]
     mechanism = Mechanism.from_yaml(path)
     concentrations = jnp.asarray(initial_concentrations(path, case))
-    settings = SolverSettings(rtol=RTOL, atol=ATOL, root_finder="newton", max_steps=50_000)
+    settings = SolverSettings(rtol=RTOL, atol=ATOL, max_steps=MAX_STEPS)
     zero = jnp.zeros(mechanism.n_reactions)
 
     end_time = case.sensitivity_time
@@ -100,7 +96,7 @@ COLUMNS = ("mechanism", "parameters", "end_time_s", "forward_s", "forward_compil
            "gradient_speedup_vs_cantera_sensitivities")
 
 
-def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2",), repeats: int = 5) -> list[dict]:
+def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), repeats: int = 5) -> list[dict]:
     """Print the table and write `bench_kinetics.json` and `bench_kinetics.csv` under `out`."""
     rows = [benchmark_mechanism(name, repeats) for name in mechanisms]
     print(f"constant-volume adiabatic ignition to late induction, rtol {RTOL:g} / atol {ATOL:g} (Cantera's "

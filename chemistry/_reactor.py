@@ -17,6 +17,7 @@ from jaxtyping import Array, Float
 
 from snapo_ode import EffectCatalogue, InputError, Scene, check_choice, check_increasing, check_range
 from snapo_ode._ode import diffeqsolve_checked
+from snapo_ode import Rodas4
 
 from ._mechanism import Mechanism, RateParameters
 from ._units import GAS_CONSTANT
@@ -32,46 +33,57 @@ REACTOR_EFFECTS = EffectCatalogue(
 )
 ReactorKind = Literal["constant-volume", "constant-pressure"]
 RootFinder = Literal["newton", "chord"]
+Method = Literal["kvaerno5", "rodas4"]
 
 
 class SolverSettings(eqx.Module):
-    """How a reactor is integrated: Kvaerno5 (5th-order ESDIRK) with an adaptive step.
-
-    The defaults (chord root finder, kappa 0.5, an integral controller, rtol 1e-8 / atol 1e-11)
-    carry h2o2 and gri30 ignitions to within 1e-5 of Cantera's delay; with Newton, or a PID
-    controller at looser tolerances, the same solves stall after ignition or drift.
+    """How a reactor is integrated: Rodas4 (4th-order Rosenbrock, default) or Kvaerno5
+    (5th-order ESDIRK), with an adaptive step.
 
     - `rtol`, `atol`: tolerances on the scaled state [T / T0, N_k / N_total0].
-    - `root_finder`: "newton" (`optimistix.Newton`, fewest steps on smooth stiff problems) or
-      "chord" (`diffrax.VeryChord` with `kappa`, which keeps going through an ignition where
-      Newton can stall at tiny steps).
+    - `method`: "rodas4" (`snapo_ode.Rodas4`: one Jacobian, from the mechanism's closed-form
+      concentration Jacobian, and one LU a step) or "kvaerno5". Rodas4 is the default although
+      the issue named Kvaerno5/KenCarp, because it is the one that holds up (measured, rtol 1e-8,
+      whole ignitions): h2o2 in 910 accepted + 61 rejected steps, where Kvaerno5 with the chord
+      root finder took 3,642 + 4,481 and, after a change at round-off level in the rates, hit
+      max_steps; and its reverse pass has no root finder's implicit derivative, which failed
+      on rejected steps of a gri30 ignition (docs/chemistry.md).
+    - `root_finder` (Kvaerno5 only): "chord" (`diffrax.VeryChord` with `kappa`) or "newton"
+      (`optimistix.Newton`, fewer steps before an ignition, but it stalls after the front).
     - `pcoeff`, `icoeff`: the PID step-size controller's coefficients (0, 1: a plain
       integral controller).
     - `max_steps`: the solve raises (with advice) if it needs more.
-    - `adjoint`: a `diffrax` adjoint (default `RecursiveCheckpointAdjoint`; `BacksolveAdjoint`
-      is refused on these stiff models).
+    - `adjoint`: a `diffrax` adjoint; default `RecursiveCheckpointAdjoint` with a checkpoint a
+      step (no step is recomputed from an earlier checkpoint: with Diffrax's default the
+      reverse pass through Rodas4 drifted from forward mode, docs/pharma.md). `BacksolveAdjoint`
+      is refused on these stiff models.
     """
 
     rtol: float = eqx.field(static=True, default=1e-8)
     atol: float = eqx.field(static=True, default=1e-11)
     root_finder: str = eqx.field(static=True, default="chord")
+    method: str = eqx.field(static=True, default="rodas4")
     kappa: float = eqx.field(static=True, default=0.5)
     pcoeff: float = eqx.field(static=True, default=0.0)
     icoeff: float = eqx.field(static=True, default=1.0)
     max_steps: int = eqx.field(static=True, default=20_000)
-    adjoint: diffrax.AbstractAdjoint = eqx.field(static=True, default_factory=diffrax.RecursiveCheckpointAdjoint)
+    adjoint: diffrax.AbstractAdjoint | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         check_range("rtol", self.rtol, 0.0, 1.0, low_open=True, high_open=True)
         check_range("atol", self.atol, 0.0, 1.0, low_open=True, high_open=True)
         check_choice("root_finder", self.root_finder, ("newton", "chord"))
+        check_choice("method", self.method, ("kvaerno5", "rodas4"))
         check_range("kappa", self.kappa, 0.0, 1.0, low_open=True)
         check_range("max_steps", self.max_steps, 1)
 
     def controller(self) -> diffrax.PIDController:
         return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff)
 
-    def solver(self) -> diffrax.Kvaerno5:
+    def solver(self, jacobian=None) -> diffrax.AbstractAdaptiveSolver:
+        """The solver; `jacobian(t, state, args)`, the model's exact Jacobian, serves Rodas4."""
+        if self.method == "rodas4":
+            return Rodas4(jacobian=jacobian)
         if self.root_finder == "newton":
             return diffrax.Kvaerno5(root_finder=optx.Newton(rtol=self.rtol, atol=self.atol))
         return diffrax.Kvaerno5(root_finder=diffrax.VeryChord(rtol=self.rtol, atol=self.atol, kappa=self.kappa))
@@ -214,22 +226,33 @@ def simulate(reactor: Reactor, temperature, concentrations, times, *, volume=1.0
     amount_scale = jnp.sum(amounts0)
     energy = reactor.scene.has("energy")
 
+    def energy_field(t_scaled, n_scaled):
+        d_t, d_n = reactor.time_derivatives(t_scaled * temperature, n_scaled * amount_scale, volume, parameters)
+        return jnp.concatenate([(d_t / temperature)[None], d_n / amount_scale])
+
     def vector_field(t, state, args):
         if energy:
-            t_scaled, n_scaled = state[0], state[1:]
-            d_t, d_n = reactor.time_derivatives(t_scaled * temperature, n_scaled * amount_scale, volume, parameters)
-            return jnp.concatenate([(d_t / temperature)[None], d_n / amount_scale])
+            return energy_field(state[0], state[1:])
         _, d_n = reactor.time_derivatives(temperature, state * amount_scale, volume, parameters)
         return d_n / amount_scale
+
+    def energy_jacobian(t, state, args):
+        """d(vector_field)/d(state): one tangent for the temperature, one per amount."""
+        t_scaled, n_scaled = state[0], state[1:]
+        by_temperature = jax.jvp(lambda x: energy_field(x, n_scaled), (t_scaled,), (jnp.ones_like(t_scaled),))[1]
+        by_amounts = jax.jacfwd(lambda n: energy_field(t_scaled, n))(n_scaled)
+        return jnp.concatenate([by_temperature[:, None], by_amounts], axis=1)
 
     n_scaled = amounts0 / amount_scale
     state0 = jnp.concatenate([jnp.ones(1), n_scaled]) if energy else n_scaled
     times = jnp.asarray(times, float)
     solution = diffeqsolve_checked(
-        diffrax.ODETerm(vector_field), settings.solver(), 0.0, times[-1], None, state0,
+        diffrax.ODETerm(vector_field), settings.solver(energy_jacobian if energy else None), 0.0, times[-1], None,
+        state0,
         saveat=diffrax.SaveAt(ts=times, dense=dense),
         stepsize_controller=settings.controller(),
-        adjoint=settings.adjoint, max_steps=settings.max_steps,
+        adjoint=settings.adjoint or diffrax.RecursiveCheckpointAdjoint(checkpoints=settings.max_steps),
+        max_steps=settings.max_steps,
     )
     ys = solution.ys
     temperatures = ys[:, 0] * temperature if energy else jnp.full(times.shape, temperature)

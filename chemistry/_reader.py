@@ -184,6 +184,18 @@ def _orders(species, rows):
     return Orders(jnp.asarray(index), jnp.asarray(order))
 
 
+def _changed_species(net_stoichiometry: np.ndarray) -> np.ndarray:
+    """Each reaction's species with a non-zero net stoichiometric coefficient, padded with
+    n_species to the longest row, shape (n_reactions, q)."""
+    n_r, n_s = net_stoichiometry.shape
+    rows = [np.flatnonzero(row) for row in net_stoichiometry]
+    width = max((len(row) for row in rows), default=0)
+    changed = np.full((n_r, max(width, 1)), n_s, np.int32)
+    for i, row in enumerate(rows):
+        changed[i, :len(row)] = row
+    return changed
+
+
 def read_mechanism(cls, path, phase=None):
     """Build `cls` (a `Mechanism`) from phase `phase` of the YAML file at `path`."""
     path = Path(path)
@@ -258,6 +270,7 @@ def read_mechanism(cls, path, phase=None):
         molar_volumes=jnp.asarray(volumes),
         pre_exponential=column(reactions, lambda r: r.a),
         net_stoichiometry=jnp.asarray(product - reactant),
+        changed_species=jnp.asarray(_changed_species(product - reactant)),
         forward=_orders(species, [r.orders for r in reactions]),
         reverse=_orders(species, [reactions[i].products for i in reversible]),
         reversible_index=jnp.asarray(reversible),

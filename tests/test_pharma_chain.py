@@ -2,6 +2,7 @@
 crystallizer's mass balance, effects absent from the jaxpr, and the errors bad input gets."""
 
 import itertools
+import unittest.mock
 
 import cantera
 import equinox as eqx
@@ -100,6 +101,36 @@ def test_an_effect_left_out_is_absent_from_the_jaxpr(physical, effect):
     full = _ops(PHARMA_EFFECTS.scene(), physical)
     without = PHARMA_EFFECTS.scene(without=[effect, *(("impurity_incorporation",) if effect == "crystallization" else ())])
     assert _ops(without, physical) < full
+
+
+def _spectral_radii(chain, cpps, physical) -> dict[bool, float]:
+    """max |lambda| of each unit's Jacobian [1 / unit duration] along its accepted steps, over
+    the stiff (True) and the non-stiff (False) units: each unit's solve is recorded, then
+    repeated with every step saved."""
+    radii = {True: 0.0, False: 0.0}
+    solve = ChainSolver.solve
+
+    def recording(self, rhs, y0, args, *, stiff=True, steps=False):
+        solution = solve(self, rhs, y0, args, stiff=stiff, steps=True)
+        finite = np.isfinite(np.asarray(solution.ts))
+        for s, y in zip(np.asarray(solution.ts)[finite], np.asarray(solution.ys)[finite], strict=True):
+            jacobian = np.asarray(jax.jacfwd(lambda y: rhs(s, y, args))(jnp.asarray(y)))
+            radii[stiff] = max(radii[stiff], float(np.abs(np.linalg.eigvals(jacobian)).max()))
+        return solution if steps else solution.ys[int(solution.stats["num_accepted_steps"]) - 1]
+
+    with unittest.mock.patch.object(ChainSolver, "solve", recording):
+        chain.simulate(cpps, None, physical)
+    return radii
+
+
+@pytest.mark.parametrize("corner", list(itertools.product(*[r.par for r in CPP_RANGES])))
+def test_the_units_given_an_explicit_solver_are_not_stiff_at_any_corner(physical, corner):
+    # Why the crystallizer and the dryer default to Tsit5: over a unit (duration 1), an explicit
+    # method is stable for h |lambda| <~ 3, so |lambda| <= 50 costs at most ~20 steps, while R1
+    # and R2 (|lambda| ~ 1e5) need an L-stable solver.
+    radii = _spectral_radii(PharmaChain(), make_cpps(**dict(zip(CPP_NAMES, corner, strict=True))), physical)
+    assert radii[False] <= 50.0
+    assert radii[True] >= 1e5
 
 
 def test_side_reactions_off_removes_the_impurity_and_the_stiffness(physical):

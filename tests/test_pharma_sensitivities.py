@@ -80,7 +80,8 @@ def test_forward_tangents_give_the_reverse_passes_sensitivities(chain, inputs, a
 def test_r1_agrees_with_scipy_radau_at_tight_tolerance(without):
     cpps = make_cpps(r1_temperature=320.0, r1_residence_time=38.0)
     physical = chain_inputs(PharmaChain(), cpps).physical
-    chain = PharmaChain(scene=PHARMA_EFFECTS.scene(without=without), solver=ChainSolver(rtol=1e-12, atol=1e-14))
+    chain = PharmaChain(scene=PHARMA_EFFECTS.scene(without=without),
+                        solver=ChainSolver(rtol=1e-12, atol=1e-14, max_steps=20000))
     reference = scipy_r1(chain, cpps, physical)
     outlet = chain.run_r1(cpps, chain.rate_parameters, physical)
     ours = np.asarray(outlet.amounts)

@@ -69,6 +69,7 @@ def _reduce(mechanism: Mechanism, keep: tuple[int, ...]) -> Mechanism:
         reaction_equations=tuple(mechanism.reaction_equations[i] for i in keep),
         pre_exponential=mechanism.pre_exponential[index],
         net_stoichiometry=mechanism.net_stoichiometry[index],
+        changed_species=mechanism.changed_species[index],
         forward=dataclasses.replace(mechanism.forward, index=mechanism.forward.index[index],
                                     order=mechanism.forward.order[index]),
         parameters=jax.tree.map(lambda a: a[index], mechanism.parameters),

@@ -96,7 +96,7 @@ class Crystallizer(eqx.Module):
         state = jnp.concatenate([jnp.reshape(api, (1,)), seed_moments])
         if self.impurity_incorporation:
             state = jnp.concatenate([state, jnp.zeros(2)])
-        end = solver.solve(self.rhs, state, (profile, duration, physical, impurity, degradant))
+        end = solver.solve(self.rhs, state, (profile, duration, physical, impurity, degradant), stiff=False)
         moments = end[1:6] * N_REF * L_REF ** jnp.arange(5)
         solid = end[6:8] if self.impurity_incorporation else jnp.zeros(2)
         return CrystallizerOutlet(end[0], moments, solid[0], solid[1], profile(1.0))

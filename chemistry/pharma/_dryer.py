@@ -50,7 +50,8 @@ class Dryer(eqx.Module):
         """Dry a cake with `solvent` and `api` [kg/kg solids] at `temperature` [K] for
         `physical.drying_time` [s]."""
         if self.degradation:
-            end = solver.solve(self.rhs, jnp.stack([solvent, jnp.zeros_like(api)]), (temperature, api, physical))
+            end = solver.solve(self.rhs, jnp.stack([solvent, jnp.zeros_like(api)]), (temperature, api, physical),
+                               stiff=False)
             return DryerOutlet(end[0], api - end[1], end[1])
-        end = solver.solve(self.rhs, jnp.reshape(solvent, (1,)), (temperature, api, physical))
+        end = solver.solve(self.rhs, jnp.reshape(solvent, (1,)), (temperature, api, physical), stiff=False)
         return DryerOutlet(end[0], api, jnp.zeros_like(api))

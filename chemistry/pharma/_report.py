@@ -22,8 +22,7 @@ from ._chain import DEFAULT_MECHANISM, PharmaChain
 from ._design_space import design_space
 from ._parameters import CPP_NAMES, CPP_RANGES, CQA_NAMES, CQA_SPECS, CPPs, PHYSICAL_NAMES
 from ._sensitivities import chain_inputs
-from ._solver import ChainSolver
-from ._study import sensitivity_study
+from ._study import REFERENCE, sensitivity_study
 from ._verification import cantera_check, stiffness_ratio
 
 PACKAGES = ("snapo-ode", "jax", "jaxlib", "diffrax", "equinox", "optax", "optimistix", "lineax", "cantera",
@@ -72,7 +71,7 @@ def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 5, samples: in
     """Every number of the report, as a JSON-ready dict."""
     inputs = chain_inputs(chain, cpps)
     study, _ = sensitivity_study(chain, cpps, repeats=repeats)
-    tight = chain.with_solver(ChainSolver(rtol=1e-12, atol=1e-14, max_steps=20000))
+    tight = chain.with_solver(REFERENCE)
     cantera = cantera_check(tight, cpps, inputs.physical, mechanism_path)
     space = design_space(chain, cpps, points=points, samples=samples)
     return {
