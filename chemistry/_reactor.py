@@ -15,9 +15,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from snapo_ode import EffectCatalogue, InputError, Scene, check_choice, check_increasing, check_range
+from snapo_ode import EffectCatalogue, InputError, Rodas4, Scene, check_choice, check_increasing, check_range
 from snapo_ode._ode import diffeqsolve_checked
-from snapo_ode import Rodas4
 
 from ._mechanism import Mechanism, RateParameters
 from ._units import GAS_CONSTANT
@@ -33,7 +32,6 @@ REACTOR_EFFECTS = EffectCatalogue(
 )
 ReactorKind = Literal["constant-volume", "constant-pressure"]
 RootFinder = Literal["newton", "chord"]
-Method = Literal["kvaerno5", "rodas4"]
 
 
 class SolverSettings(eqx.Module):

@@ -12,7 +12,6 @@ import optimistix as optx
 from snapo_ode import Rodas4, check_choice, check_range
 from snapo_ode._ode import diffeqsolve_checked
 
-StiffSolverName = Literal["rodas4", "kvaerno5", "kvaerno4", "kvaerno3"]
 SolverName = Literal["rodas4", "kvaerno5", "kvaerno4", "kvaerno3", "tsit5", "dopri5"]
 DifferentiationMode = Literal["reverse", "forward"]
 _ESDIRK = {"kvaerno5": diffrax.Kvaerno5, "kvaerno4": diffrax.Kvaerno4, "kvaerno3": diffrax.Kvaerno3}
