@@ -181,7 +181,7 @@ def _orders(species, rows):
         for j, (name, value) in enumerate(row.items()):
             index[i, j] = species.index(name)
             order[i, j] = value
-    return Orders(jnp.asarray(index), jnp.asarray(order))
+    return Orders.of(index, order)
 
 
 def _changed_species(net_stoichiometry: np.ndarray) -> np.ndarray:

@@ -46,6 +46,26 @@ _C = np.array([
 ])
 
 
+@jax.custom_jvp
+def _solve(factors, matrix, rhs):
+    """`matrix`^-1 `rhs` from `factors` = `jax.scipy.linalg.lu_factor(matrix)`.
+
+    The derivative goes through `matrix`, never through the factorisation: d x = matrix^-1
+    (d rhs - d matrix x), so a reverse pass gives the matrix the outer product
+    -(matrix^-T x_bar) x^T. Differentiating the LU factorisation instead (JAX's rule for
+    `lu`) made a gri30 Rosenbrock step's reverse pass about twice as slow (measured: 8.1 ms
+    against 4.1 ms with the matrix held constant)."""
+    return jsl.lu_solve(factors, rhs)
+
+
+@_solve.defjvp
+def _solve_jvp(primals, tangents):
+    factors, matrix, rhs = primals
+    _, matrix_dot, rhs_dot = tangents
+    solution = jsl.lu_solve(factors, rhs)
+    return solution, jsl.lu_solve(factors, rhs_dot - matrix_dot @ solution)
+
+
 class Rodas4(diffrax.AbstractAdaptiveSolver):
     """RODAS4: a 6-stage, order-4 (embedded order-3), L-stable and stiffly accurate
     Rosenbrock method, for `diffrax.diffeqsolve` with a single `diffrax.ODETerm`.
@@ -98,7 +118,7 @@ class Rodas4(diffrax.AbstractAdaptiveSolver):
         else:
             jacobian = self.jacobian(t0, y0, args)
         matrix = jnp.eye(y0_flat.size, dtype=dtype) / (_GAMMA * h) - jacobian
-        factors = jsl.lu_factor(matrix)
+        factors = jsl.lu_factor(jax.lax.stop_gradient(matrix))
 
         stages = []
         for i in range(len(_ALPHA)):
@@ -110,7 +130,7 @@ class Rodas4(diffrax.AbstractAdaptiveSolver):
                 rate_i = rate_i + sum(_C[i, j] * stages[j] for j in range(i)) / h
             if _GAMMA_SUM[i] != 0.0:
                 rate_i = rate_i + (_GAMMA_SUM[i] * h) * dfdt
-            stages.append(jsl.lu_solve(factors, rate_i))
+            stages.append(_solve(factors, matrix, rate_i))
         y1_flat = y0_flat + sum(_A[-1, j] * stages[j] for j in range(len(_ALPHA) - 1)) + stages[-1]
         y1 = unravel(y1_flat)
         # Used only where the solve saves dense output: elsewhere XLA drops it.
