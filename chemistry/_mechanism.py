@@ -84,6 +84,11 @@ class Falloff(eqx.Module):
         return k_high * reduced_pressure / (1 + reduced_pressure) * broadening
 
 
+def _integer_slots(order):
+    """Where `order` (a NumPy or JAX array) is 0, 1, 2 or 3: the slots computed as products."""
+    return (order == order.round()) & (order >= 0.0) & (order <= 3.0)
+
+
 class Orders(eqx.Module):
     """Concentration products prod_j c[index[i, j]] ** order[i, j] over padded slots; a padding
     slot points at an extra entry fixed at 1, so a species absent from a reaction never enters
@@ -107,8 +112,7 @@ class Orders(eqx.Module):
     def of(cls, index, order) -> "Orders":
         """`Orders` of the species `index` (shape `(r, w)`) with `order`, shape `(r, w)`."""
         order = np.asarray(order, float)
-        fractional = bool(np.any((order != np.round(order)) | (order < 0.0) | (order > 3.0)))
-        return cls(jnp.asarray(index), jnp.asarray(order), fractional)
+        return cls(jnp.asarray(index), jnp.asarray(order), not bool(np.all(_integer_slots(order))))
 
     def _factors(self, padded_concentrations):
         """Each slot's c ** order and its derivative, shape `(r, w)` each."""
@@ -121,7 +125,7 @@ class Orders(eqx.Module):
             order == 2.0, 2.0 * c, 3.0 * squared)))
         if not self.fractional:
             return integer, integer_slope
-        is_integer = (order == jnp.round(order)) & (order >= 0.0) & (order <= 3.0)
+        is_integer = _integer_slots(order)
         # The power of a base set to 1 on the integer slots, so its derivatives there are finite.
         base = jnp.where(is_integer, 1.0, c)
         return (jnp.where(is_integer, integer, base**order),
