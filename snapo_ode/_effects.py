@@ -7,7 +7,6 @@ absent from the traced computation (the jaxpr), never multiplied by zero.
 from collections.abc import Iterable, Mapping
 
 import equinox as eqx
-import jax
 
 from ._validation import InputError
 
@@ -90,22 +89,3 @@ class EffectCatalogue(eqx.Module):
                     f"effect {name!r} of {self.model} needs {', '.join(map(repr, missing))} active too."
                 )
         return Scene(self, frozenset(chosen))
-
-
-def count_operations(fn, *args, **kwargs) -> int:
-    """The number of primitive operations in the jaxpr of `fn(*args, **kwargs)`, counting the
-    bodies of loops, conditionals and calls recursively. Used to show an effect is absent."""
-
-    def count(jaxpr) -> int:
-        total = 0
-        for equation in jaxpr.eqns:
-            total += 1
-            for param in equation.params.values():
-                for sub in param if isinstance(param, (tuple, list)) else (param,):
-                    if isinstance(sub, jax.extend.core.ClosedJaxpr):
-                        total += count(sub.jaxpr)
-                    elif isinstance(sub, jax.extend.core.Jaxpr):
-                        total += count(sub)
-        return total
-
-    return count(jax.make_jaxpr(fn)(*args, **kwargs).jaxpr)

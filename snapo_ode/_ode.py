@@ -11,6 +11,8 @@ verbs, studies, benchmarks) call through it.
 """
 
 import contextlib
+import functools
+
 import diffrax
 import equinox as eqx
 import equinox._errors as equinox_errors
@@ -18,6 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._jaxpr import equations
 from ._validation import InputError
 
 _FAILURE_MESSAGES = (
@@ -41,6 +44,36 @@ def raise_if_failed(outputs, what: str = "the computation") -> None:
         if not np.all(np.isfinite(np.asarray(leaf))):
             raise SolverFailed(f"{what} gave non-finite values: an ODE solve failed. Either "
                                + " Or ".join(_FAILURE_MESSAGES))
+
+
+def _callbacks_in(jaxpr) -> int:
+    """The number of host-callback primitives in a jaxpr, loop and branch bodies included."""
+    return sum("callback" in equation.primitive.name for equation in equations(jaxpr))
+
+
+@functools.cache
+def _check_equinox_error_mode() -> None:
+    """`call_checked` relies on equinox reading the module global `equinox._errors.EQX_ON_ERROR`
+    each time it traces an `error_if` whose `on_error` is the default (as in equinox 0.13.8,
+    pinned): equinox's only public switch is the environment variable of that name, read once at
+    import, which would turn every check in the process into NaN marks. Verify once per process
+    that the global still works both ways, so that an equinox upgrade that changes it fails
+    here, loudly, instead of silently dropping checks or compiling host callbacks."""
+    def probe(x):
+        return eqx.error_if(x, x > 0, "probe")
+
+    mode = getattr(equinox_errors, "EQX_ON_ERROR", None)
+    works = mode is not None
+    if works and mode == "raise":
+        works = _callbacks_in(jax.make_jaxpr(probe)(1.0)) > 0
+    if works:
+        with _runtime_checks_as_nan():
+            works = _callbacks_in(jax.make_jaxpr(probe)(1.0)) == 0
+    if not works:
+        raise RuntimeError(
+            f"equinox {eqx.__version__} no longer reads equinox._errors.EQX_ON_ERROR when it traces a "
+            "runtime check, which snapo_ode.call_checked relies on (tested with equinox 0.13.8): install "
+            "the pinned versions (requirements.lock), or adapt snapo_ode/_ode.py to the new mechanism.")
 
 
 @contextlib.contextmanager
@@ -73,6 +106,7 @@ def call_checked(fn, *args, what: str = "the computation", **kwargs):
 
     Traces made inside `call_checked` are kept apart from those made outside it (see
     `_runtime_checks_as_nan`), so a plain call of the same function still raises."""
+    _check_equinox_error_mode()
     with _runtime_checks_as_nan():
         out = fn(*args, **kwargs)
     raise_if_failed(out, what)

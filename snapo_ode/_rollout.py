@@ -2,8 +2,8 @@
 `diffrax.diffeqsolve` through a fixed-step solver.
 
 Both give identical states and gradients (tested). `lax.scan` is the default because it is the
-faster of the two on every case measured (`snapo bench rollout`); the Diffrax route lets a
-discrete-time model share Diffrax's adjoints and its `RecursiveCheckpointAdjoint` memory bound.
+faster of the two forward and compiles 7x faster (the rollout table of `snapo bench gas`); the
+Diffrax route lets a discrete-time model share Diffrax's adjoints and its memory bound.
 """
 
 from collections.abc import Callable

@@ -1,4 +1,9 @@
-"""Wall-clock timing of JAX functions: compile time apart from the median steady-state run."""
+"""Wall-clock timing of JAX functions: compile time apart from the median steady-state run.
+
+The one timing convention of the project (every benchmark and every JSON): `median_seconds` is
+the median of `repeats` calls after a first call, and `compile_seconds` is that first call's
+time less the median: tracing plus compiling, or loading from the persistent cache, which is
+what a user waits for before the first result."""
 
 import statistics
 import time

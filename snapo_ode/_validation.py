@@ -81,3 +81,12 @@ def check_increasing(field: str, value, *, strict: bool = True) -> np.ndarray:
             f"({array[i + 1]:g}) follows {array[i]:g}."
         )
     return array
+
+
+def check_count(field: str, value, low: int = 1, high: int | None = None) -> int:
+    """Raise unless `value` is a whole number in [low, high] (bools refused); returns it as an int."""
+    whole = isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+    if not whole or value < low or (high is not None and value > high):
+        allowed = f"a whole number >= {low}" if high is None else f"a whole number in [{low}, {high}]"
+        raise InputError(f"{field} = {value!r}; allowed: {allowed}.")
+    return int(value)

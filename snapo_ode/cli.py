@@ -4,9 +4,24 @@ A plugin is a function `register(cli: CommandLine) -> None` that adds its verbs 
 `cli.command(name, help)`, `cli.bench(name, help)` and `cli.report(name, help)`; each returns an
 `argparse.ArgumentParser` whose `handler` default (`parser.set_defaults(handler=fn)`) is called
 with the parsed arguments. The core itself never imports a domain.
+
+Every verb, bench and report gets the same options from the core:
+
+- `--out DIR`: where everything the command writes goes (default `snapo-out`; a report's
+  default is `snapo-out/NAME-report`).
+- `--json PATH`: the result's JSON (default `OUT/NAME.json`; a report's `OUT/report.json`);
+  a result is always written, so a long run is never lost to a missing flag.
+- `--no-progress`: no progress bars (`args.progress` is the opposite).
+- `--seed N`: the random seed (default 0).
+- `--debug`: a traceback instead of the one-line error.
+
+Exit codes: 0 success; 2 a user mistake (`InputError`: a one-line `snapo: error: ...` naming
+the field, the value and what is allowed); 3 a failed solve (`SolverFailed`, with advice).
+Heavy imports (JAX, the models) happen inside the handlers, so `snapo --help` stays quick.
 """
 
 import argparse
+import pathlib
 import sys
 from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
@@ -14,6 +29,21 @@ from importlib.metadata import entry_points
 from ._validation import InputError
 
 PLUGIN_GROUP = "snapo_ode.plugins"
+DEFAULT_OUT = pathlib.Path("snapo-out")
+EXIT_INPUT_ERROR = 2
+EXIT_SOLVER_FAILED = 3
+
+
+def add_common_options(parser: argparse.ArgumentParser, *, out: pathlib.Path, json_name: str) -> None:
+    """Add `--out`, `--json`, `--no-progress`, `--seed` and `--debug` (see the module docstring)."""
+    parser.add_argument("--out", type=pathlib.Path, default=out, metavar="DIR",
+                        help=f"directory of everything this command writes (default {out})")
+    parser.add_argument("--json", type=pathlib.Path, metavar="PATH",
+                        help=f"the result's JSON (default OUT/{json_name})")
+    parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--debug", action="store_true", help="show a traceback on error")
+    parser.set_defaults(json_name=json_name)
 
 
 class CommandLine:
@@ -25,22 +55,41 @@ class CommandLine:
             description="Smooth Neural Adjoint Policy Optimization on differentiable simulators.",
         )
         self._verbs = self.parser.add_subparsers(dest="verb", metavar="VERB")
-        bench = self._verbs.add_parser("bench", help="run a benchmark and print its table")
+        bench = self._verbs.add_parser("bench", help="run a benchmark, print its table, write CSV and JSON")
         self._benches = bench.add_subparsers(dest="bench", metavar="NAME")
-        report = self._verbs.add_parser("report", help="write a report to a directory")
+        report = self._verbs.add_parser("report", help="write a report (HTML, PDF, CSV, JSON) to a directory")
         self._reports = report.add_subparsers(dest="report", metavar="NAME")
+        self._groups: dict[int, str] = {}
 
-    def command(self, name: str, help: str) -> argparse.ArgumentParser:
-        """A top-level verb: `snapo NAME ...`."""
-        return self._verbs.add_parser(name, help=help, description=help)
+    def command(self, name: str, help: str, *, group: "argparse._SubParsersAction | None" = None,
+                json_name: str | None = None) -> argparse.ArgumentParser:
+        """A verb: `snapo NAME ...`, or with `group` (from `CommandLine.group`) a sub-verb such
+        as `snapo pharma NAME`; its result goes to `OUT/NAME.json` (`OUT/GROUP-NAME.json`, or
+        `OUT/json_name`) by default."""
+        verbs = self._verbs if group is None else group
+        parser = verbs.add_parser(name, help=help, description=help)
+        prefix = "" if group is None else f"{self._groups[id(group)]}-"
+        add_common_options(parser, out=DEFAULT_OUT, json_name=json_name or f"{prefix}{name}.json")
+        return parser
+
+    def group(self, name: str, help: str) -> argparse._SubParsersAction:
+        """A verb with sub-verbs (`snapo NAME VERB ...`): returns the group to pass to `command`."""
+        parser = self._verbs.add_parser(name, help=help, description=help)
+        group = parser.add_subparsers(dest=f"{name}_verb", metavar="VERB", required=True)
+        self._groups[id(group)] = name
+        return group
 
     def bench(self, name: str, help: str) -> argparse.ArgumentParser:
-        """A benchmark: `snapo bench NAME ...`."""
-        return self._benches.add_parser(name, help=help, description=help)
+        """A benchmark: `snapo bench NAME ...`; its table goes to `OUT/bench_NAME.{csv,json}`."""
+        parser = self._benches.add_parser(name, help=help, description=help)
+        add_common_options(parser, out=DEFAULT_OUT, json_name=f"bench_{name.replace('-', '_')}.json")
+        return parser
 
     def report(self, name: str, help: str) -> argparse.ArgumentParser:
-        """A report: `snapo report NAME --out DIR ...`."""
-        return self._reports.add_parser(name, help=help, description=help)
+        """A report: `snapo report NAME ...`, written into `--out` (default `snapo-out/NAME-report`)."""
+        parser = self._reports.add_parser(name, help=help, description=help)
+        add_common_options(parser, out=DEFAULT_OUT / f"{name}-report", json_name="report.json")
+        return parser
 
 
 def build(plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> CommandLine:
@@ -53,19 +102,39 @@ def build(plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> Com
     return cli
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the `snapo` console script."""
-    cli = build()
+def parse(cli: CommandLine, argv: Sequence[str] | None = None) -> argparse.Namespace:
+    """Parse `argv`; fills in `args.json` (default `OUT/NAME.json`) and `args.progress`."""
     args = cli.parser.parse_args(argv)
+    if hasattr(args, "json_name"):
+        args.json = args.json if args.json is not None else args.out / args.json_name
+        args.progress = not args.no_progress
+    return args
+
+
+def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> int:
+    """Entry point of the `snapo` console script."""
+    cli = build(plugins)
+    args = parse(cli, argv)
     handler = getattr(args, "handler", None)
     if handler is None:
         cli.parser.print_help()
-        return 2
+        return EXIT_INPUT_ERROR
+    from ._config import configure
+    from ._ode import SolverFailed
+
     try:
+        configure()
         return int(handler(args) or 0)
     except InputError as error:
+        if args.debug:
+            raise
         print(f"snapo: error: {error}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT_ERROR
+    except SolverFailed as error:
+        if args.debug:
+            raise
+        print(f"snapo: error: {error}", file=sys.stderr)
+        return EXIT_SOLVER_FAILED
 
 
 if __name__ == "__main__":

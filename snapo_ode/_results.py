@@ -1,0 +1,73 @@
+"""Typed study results: every study returns a frozen dataclass deriving from `Result`, which
+writes itself as JSON (`to_json`) and as a few lines for the terminal (`summary`).
+
+What later steps need but a JSON file should not hold (the trained policy, the evaluation
+shocks, per-path schedules) is a field declared with `field(json=False)`: it travels with the
+result and never reaches the file.
+"""
+
+import dataclasses
+import os
+import pathlib
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ._io import atomic_write_json
+
+
+def field(*, json: bool = True, **kwargs) -> Any:
+    """A dataclass field of a `Result`; `json=False` keeps it out of `to_json`."""
+    return dataclasses.field(metadata={"json": json}, **kwargs)
+
+
+def jsonable(value) -> Any:
+    """`value` as JSON-ready Python: results and dataclasses as dicts of their JSON fields,
+    named tuples as dicts, arrays as (nested) lists, NumPy scalars as Python numbers.
+
+    **Raises:** `TypeError` naming the type of anything else (a policy left in a JSON field)."""
+    if isinstance(value, Result):
+        return value.to_json()
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)
+                if f.metadata.get("json", True)}
+    if isinstance(value, tuple) and hasattr(value, "_asdict"):
+        return {key: jsonable(item) for key, item in value._asdict().items()}
+    if isinstance(value, Mapping):
+        return {str(key): jsonable(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(item) for item in value]
+    if isinstance(value, (str, bool, int, float)) or value is None:
+        return value
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, np.generic) or hasattr(value, "__array__"):
+        return np.asarray(value).tolist()
+    raise TypeError(f"{type(value).__name__} is not JSON-ready; declare its field with json=False.")
+
+
+class Result:
+    """Base of the typed results (use with `@dataclasses.dataclass(frozen=True, kw_only=True)`).
+
+    Subclasses give `summary()`; `to_json()` returns every field not declared `json=False`, in
+    declaration order (without the None ones when the class sets `omit_none`: fields that only
+    some runs fill), and may be extended where a documented JSON layout needs it."""
+
+    omit_none: ClassVar[bool] = False
+
+    def to_json(self) -> dict:
+        payload = jsonable(_fields(self))
+        return {key: value for key, value in payload.items() if value is not None} if self.omit_none else payload
+
+    def summary(self) -> str:
+        """A few lines for the terminal."""
+        raise NotImplementedError
+
+    def write_json(self, path: str | os.PathLike) -> pathlib.Path:
+        """Write `to_json()` to `path` atomically (NaN and infinities are refused)."""
+        return atomic_write_json(path, self.to_json())
+
+
+def _fields(result: Result) -> dict:
+    return {f.name: getattr(result, f.name) for f in dataclasses.fields(result) if f.metadata.get("json", True)}

@@ -1,0 +1,142 @@
+"""One configuration for every ODE solve in the project: solver, tolerances, step controller,
+root finder and the adjoint that differentiates through the solve.
+
+Reactors (chemistry) and the pharma chain take a `SolverSettings`; the reasons behind each
+default are written here once.
+"""
+
+import dataclasses
+from typing import Literal, get_args
+
+import diffrax
+import equinox as eqx
+import optimistix as optx
+
+from ._ode import diffeqsolve_checked
+from ._rosenbrock import Rodas4
+from ._validation import check_choice, check_range
+
+SolverName = Literal["rodas4", "kvaerno5", "kvaerno4", "kvaerno3", "tsit5", "dopri5"]
+RootFinderName = Literal["newton", "chord"]
+Differentiation = Literal["reverse", "forward", "backsolve"]
+
+_ESDIRK = {"kvaerno5": diffrax.Kvaerno5, "kvaerno4": diffrax.Kvaerno4, "kvaerno3": diffrax.Kvaerno3}
+_EXPLICIT = {"tsit5": diffrax.Tsit5, "dopri5": diffrax.Dopri5}
+STIFF_SOLVERS: tuple[str, ...] = ("rodas4", *_ESDIRK)
+SOLVERS: tuple[str, ...] = get_args(SolverName)
+
+
+class SolverSettings(eqx.Module):
+    """How an ODE is integrated. Static: two settings compile to two programs.
+
+    **Fields:**
+    - `rtol`, `atol`: tolerances of the adaptive step (`diffrax.PIDController`), on the state
+      as the model scales it (models scale their states to O(1) so that one `atol` means the
+      same for every component).
+    - `solver`: for stiff models (or the stiff units of a chain): "rodas4" (default,
+      `snapo_ode.Rodas4`: one Jacobian and one LU a step, no Newton iteration) or the ESDIRK
+      "kvaerno5", "kvaerno4", "kvaerno3". Rodas4 is the default because it is the one that
+      holds up (measured on whole ignitions at rtol 1e-8: h2o2 in 910 accepted + 61 rejected
+      steps, where Kvaerno5 with a chord root finder took 3,642 + 4,481 and, after a change at
+      round-off level in the rates, hit max_steps), and because its reverse pass has no root
+      finder's implicit derivative, which failed on rejected steps of a gri30 ignition. An
+      explicit name ("tsit5", "dopri5") is allowed and is then used for every part.
+    - `nonstiff_solver`: for the parts a model declares non-stiff (`solve(..., stiff=False)`),
+      e.g. the pharma crystallizer and dryer, whose Jacobians' eigenvalues stay below ~20 per
+      unit duration: "tsit5" (default: explicit, no Jacobian to form or differentiate), "dopri5",
+      or any stiff solver's name.
+    - `root_finder` (ESDIRK only): "newton" (`optimistix.Newton`) or "chord"
+      (`diffrax.VeryChord` with `kappa`). Newton takes fewer steps before an ignition front but
+      can stall after it; the chord finder held up on whole ignitions.
+    - `root_rtol`, `root_atol` (ESDIRK only): the stage equations' tolerances; `None` uses the
+      step's. Looser than the step's can be right: Newton converges quadratically, and asking
+      1e-10 of it on a stiff system (condition number ~ h * 4e5 on the pharma R1) meets
+      round-off, fails and rejects steps.
+    - `kappa` (chord only): its convergence rate threshold.
+    - `pcoeff`, `icoeff`: the PID controller's coefficients (0, 1: a plain integral controller;
+      a PID drifted at an ignition front).
+    - `max_steps`: the solve raises `SolverFailed` (with advice) if it needs more.
+    - `differentiation`: how a derivative goes through the solve:
+      - "reverse" (default): `RecursiveCheckpointAdjoint` with `checkpoints` (default
+        `max_steps`, a checkpoint at every step, so that no step is recomputed from an earlier
+        checkpoint: with Diffrax's default log2(max_steps) checkpoints the reverse pass through
+        Rodas4 on the pharma R1 drifted 1.5e-6 relative from forward mode at rtol 1e-10, where
+        forward mode and a checkpoint a step agree to 1e-13; the memory is `max_steps` states).
+      - "forward": `diffrax.ForwardMode`, for `jax.jvp` / `jax.jacfwd` (few inputs, many
+        outputs). Diffrax needs a different adjoint for each mode.
+      - "backsolve": `diffrax.BacksolveAdjoint`, refused on stiff solves (its backward solve
+        diverges there: max_steps, or gradients near 1e297).
+    - `checkpoints`: of the reverse adjoint; `None` is `max_steps` (see above).
+    """
+
+    rtol: float = eqx.field(static=True, default=1e-8)
+    atol: float = eqx.field(static=True, default=1e-10)
+    solver: SolverName = eqx.field(static=True, default="rodas4")
+    nonstiff_solver: SolverName = eqx.field(static=True, default="tsit5")
+    root_finder: RootFinderName = eqx.field(static=True, default="newton")
+    root_rtol: float | None = eqx.field(static=True, default=None)
+    root_atol: float | None = eqx.field(static=True, default=None)
+    kappa: float = eqx.field(static=True, default=0.5)
+    pcoeff: float = eqx.field(static=True, default=0.0)
+    icoeff: float = eqx.field(static=True, default=1.0)
+    max_steps: int = eqx.field(static=True, default=20_000)
+    differentiation: Differentiation = eqx.field(static=True, default="reverse")
+    checkpoints: int | None = eqx.field(static=True, default=None)
+
+    def __check_init__(self):
+        for name in ("rtol", "atol") + (("root_rtol",) if self.root_rtol is not None else ()) + (
+                ("root_atol",) if self.root_atol is not None else ()):
+            check_range(name, getattr(self, name), 0.0, 1.0, low_open=True, high_open=True)
+        check_choice("solver", self.solver, SOLVERS)
+        check_choice("nonstiff_solver", self.nonstiff_solver, SOLVERS)
+        check_choice("root_finder", self.root_finder, get_args(RootFinderName))
+        check_choice("differentiation", self.differentiation, get_args(Differentiation))
+        check_range("kappa", self.kappa, 0.0, 1.0, low_open=True)
+        check_range("max_steps", self.max_steps, 1)
+        if self.checkpoints is not None:
+            check_range("checkpoints", self.checkpoints, 1)
+
+    def replace(self, **changes) -> "SolverSettings":
+        """A copy with `changes` (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def controller(self) -> diffrax.PIDController:
+        return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff)
+
+    def method(self, *, stiff: bool = True, jacobian=None) -> diffrax.AbstractAdaptiveSolver:
+        """The Diffrax solver for a stiff (`solver`) or non-stiff (`nonstiff_solver`) part.
+        `jacobian(t, y, args)`, a model's exact df/dy on the flattened state, serves Rodas4."""
+        name = self.solver if stiff else self.nonstiff_solver
+        if name == "rodas4":
+            return Rodas4(jacobian=jacobian)
+        if name in _EXPLICIT:
+            return _EXPLICIT[name]()
+        rtol = self.rtol if self.root_rtol is None else self.root_rtol
+        atol = self.atol if self.root_atol is None else self.root_atol
+        if self.root_finder == "newton":
+            return _ESDIRK[name](root_finder=optx.Newton(rtol=rtol, atol=atol))
+        return _ESDIRK[name](root_finder=diffrax.VeryChord(rtol=rtol, atol=atol, kappa=self.kappa))
+
+    def adjoint(self) -> diffrax.AbstractAdjoint:
+        """The Diffrax adjoint for `differentiation` (see the class docstring for why)."""
+        if self.differentiation == "forward":
+            return diffrax.ForwardMode()
+        if self.differentiation == "backsolve":
+            return diffrax.BacksolveAdjoint()
+        return diffrax.RecursiveCheckpointAdjoint(checkpoints=self.checkpoints or self.max_steps)
+
+    def solve(self, vector_field, t0, t1, y0, args=None, *, stiff: bool = True, saveat=None, jacobian=None,
+              dt0=None) -> diffrax.Solution:
+        """`dy/dt = vector_field(t, y, args)` from `y0` at `t0` to `t1`, through
+        `snapo_ode.diffeqsolve_checked` (a failed solve raises with advice; a backsolve adjoint
+        is refused on a stiff solve before any compile). `saveat` defaults to the end state."""
+        return diffeqsolve_checked(
+            diffrax.ODETerm(vector_field), self.method(stiff=stiff, jacobian=jacobian), t0, t1, dt0, y0, args,
+            stiff=stiff, saveat=saveat or diffrax.SaveAt(t1=True),
+            stepsize_controller=self.controller(), max_steps=self.max_steps, adjoint=self.adjoint())
+
+    def as_dict(self) -> dict:
+        """The settings, JSON-ready (the step controller named)."""
+        fields = {field.name: getattr(self, field.name) for field in dataclasses.fields(self)}
+        return {**fields, "step_controller": f"diffrax.PIDController(rtol, atol, pcoeff={self.pcoeff}, "
+                                             f"icoeff={self.icoeff})"}
