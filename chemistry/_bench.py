@@ -18,11 +18,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from snapo_ode import atomic_write_json, atomic_write_text, call_checked, time_function
+from snapo_ode import Column, call_checked, format_table, time_function, write_table
 
 from ._ignition import IGNITION_CASES, initial_concentrations
 from ._mechanism import Mechanism
-from ._reactor import SolverSettings
+from ._reactor import REACTOR_SOLVER
 from ._sensitivities import final_temperature
 
 RTOL, ATOL = 1e-10, 1e-14
@@ -63,7 +63,7 @@ def benchmark_mechanism(name: str, repeats: int) -> dict:
     case = IGNITION_CASES[name]
     mechanism = Mechanism.from_yaml(path)
     concentrations = jnp.asarray(initial_concentrations(path, case))
-    settings = SolverSettings(rtol=RTOL, atol=ATOL, max_steps=MAX_STEPS)
+    settings = REACTOR_SOLVER.replace(rtol=RTOL, atol=ATOL, max_steps=MAX_STEPS)
     zero = jnp.zeros(mechanism.n_reactions)
 
     end_time = case.sensitivity_time
@@ -91,9 +91,14 @@ def benchmark_mechanism(name: str, repeats: int) -> dict:
     }
 
 
-COLUMNS = ("mechanism", "parameters", "end_time_s", "forward_s", "forward_compile_s", "gradient_s",
-           "gradient_compile_s", "cantera_forward_s", "cantera_sensitivities_s",
-           "gradient_speedup_vs_cantera_sensitivities")
+COLUMNS = (
+    Column("mechanism", "mechanism"), Column("parameters", "parameters"),
+    Column("to ms", "end_time_s", lambda v: f"{1e3 * v:g}"), Column("our forward s", "forward_s", ".3f"),
+    Column("our gradient s (all A, one reverse pass)", "gradient_s", ".3f"), Column("Cantera s", "cantera_forward_s", ".3f"),
+    Column("Cantera + forward sensitivities s", "cantera_sensitivities_s", ".2f"),
+    Column("gradient vs Cantera's sensitivities", "gradient_speedup_vs_cantera_sensitivities", lambda v: f"{v:.1f}x"),
+    Column("compile s (forward)", "forward_compile_s", ".0f"), Column("compile s (gradient)", "gradient_compile_s", ".0f"),
+)
 
 
 def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), repeats: int = 5) -> list[dict]:
@@ -101,16 +106,7 @@ def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), r
     rows = [benchmark_mechanism(name, repeats) for name in mechanisms]
     print(f"constant-volume adiabatic ignition to late induction, rtol {RTOL:g} / atol {ATOL:g} (Cantera's "
           f"sensitivities {SENSITIVITY_TOLERANCE:g}); medians after compile")
-    print("mechanism | parameters | to ms | forward s | gradient s (all A) | Cantera s | Cantera + sensitivities s | "
-          "speed-up | compile s (fwd / grad)")
-    for row in rows:
-        print(f"{row['mechanism']} | {row['parameters']} | {1e3 * row['end_time_s']:g} | {row['forward_s']:.3f} | "
-              f"{row['gradient_s']:.3f} | "
-              f"{row['cantera_forward_s']:.3f} | {row['cantera_sensitivities_s']:.2f} | "
-              f"{row['gradient_speedup_vs_cantera_sensitivities']:.1f}x | {row['forward_compile_s']:.0f} / "
-              f"{row['gradient_compile_s']:.0f}")
-    atomic_write_json(out / "bench_kinetics.json", {"rows": rows})
-    csv = [",".join(COLUMNS)] + [",".join(str(row[c]) for c in COLUMNS) for row in rows]
-    atomic_write_text(out / "bench_kinetics.csv", "\n".join(csv) + "\n")
-    print(f"  written: {out / 'bench_kinetics.json'}, {out / 'bench_kinetics.csv'}")
+    print(format_table(rows, COLUMNS))
+    paths = write_table(out, "bench_kinetics", rows)
+    print(f"  written: {', '.join(map(str, paths))}")
     return rows

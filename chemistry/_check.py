@@ -1,25 +1,26 @@
 """`snapo kinetics check`: one mechanism against Cantera on rates, constant-volume ignition and
-temperature sensitivities, as a JSON-ready dictionary."""
+temperature sensitivities, as a typed result."""
 
+import dataclasses
 from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
 from tqdm import tqdm
 
-from snapo_ode import InputError, check_range
+from snapo_ode import InputError, Result, check_range
 
 from ._crosscheck import compare_rates
 from ._ignition import IGNITION_CASES, IgnitionCase, cantera_ignition, initial_concentrations, solve_ignition
 from ._mechanism import Mechanism
-from ._reactor import SolverSettings
+from ._reactor import REACTOR_SOLVER
 from ._sensitivities import cantera_sensitivities, compare_sensitivities, temperature_sensitivities
 from ._units import ONE_ATM
 
 GAS_TEMPERATURES = (300.0, 2500.0)
 CONDENSED_TEMPERATURES = (280.0, 400.0)
 """Random-state temperature ranges [K]: a liquid mechanism's thermo is fitted near ambient."""
-_SENSITIVITY_SETTINGS = SolverSettings(rtol=1e-10, atol=1e-14)
+_SENSITIVITY_SETTINGS = REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14)
 
 
 def default_case(mechanism: Mechanism, path: str | Path) -> IgnitionCase | None:
@@ -38,18 +39,79 @@ def default_case(mechanism: Mechanism, path: str | Path) -> IgnitionCase | None:
     return None
 
 
-def check_mechanism(path: str | Path, *, phase: str | None = None, n_states: int = 120, seed: int = 0,
-                    case: IgnitionCase | None = None, ignition: bool = True, sensitivities: bool = True,
-                    top: int = 10, n_times: int = 51, progress: bool = True) -> dict:
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class KineticsCheck(Result):
+    """A mechanism against Cantera: the file and its size; `rates` (max relative errors of the
+    rates of progress and net production rates at random states); `ignition` and `sensitivities`
+    (each with "skipped" and the reason where they do not apply)."""
+
+    mechanism: str
+    phase: str | None
+    thermo: str
+    n_species: int
+    n_reactions: int
+    rates: dict
+    ignition: dict
+    sensitivities: dict
+
+    def summary(self) -> str:
+        rates = self.rates
+        lines = [f"{self.mechanism}: {self.n_species} species, {self.n_reactions} reactions ({self.thermo})",
+                 f"  rates at {rates['n_states']} random states: max relative error {rates['net_production']:.2e} "
+                 f"(net production), {rates['rates_of_progress']:.2e} (rates of progress)"]
+        ignition = self.ignition
+        if "skipped" in ignition:
+            lines.append(f"  ignition: skipped ({ignition['skipped']})")
+        else:
+            case = ignition["case"]
+            lines.append(f"  ignition of {case['composition']} from {case['temperature']:g} K, {case['pressure']:g} Pa: "
+                         f"delay {ignition['delay_s'] * 1e3:.6f} ms vs Cantera {ignition['cantera_delay_s'] * 1e3:.6f} "
+                         f"ms: relative error {ignition['delay_relative_error']:.2e}; T history "
+                         f"{ignition['temperature_max_relative_error']:.2e}")
+        sensitivity = self.sensitivities
+        if "skipped" not in sensitivity:
+            lines.append(f"  top {len(sensitivity['top'])} d ln T / d ln A at {sensitivity['time_s'] * 1e3:.4f} ms: "
+                         f"max relative difference {sensitivity['max_relative_difference']:.2e}, same ranking: "
+                         f"{sensitivity['same_ranking']}")
+        return "\n".join(lines)
+
+
+def ignition_case(mechanism: Mechanism, path: str | Path, mixture: str | None, overrides: dict
+                  ) -> IgnitionCase | None:
+    """The case of `mixture` (default: `default_case`) with `overrides` of its fields.
+
+    **Raises:** `InputError` for a non-positive value, a sensitivity time after the end time, or
+    overrides with no mixture to apply them to."""
+    for field, value in overrides.items():
+        check_range(field, value, 0.0, low_open=True)
+    case = default_case(mechanism, path) if mixture is None else IgnitionCase(mixture, 1000.0, ONE_ATM, 1e-3,
+                                                                              float("nan"))
+    if case is None:
+        if overrides:
+            raise InputError(f"{', '.join(overrides)} given, but {Path(path).name} has no built-in ignition case "
+                             "(no H2/O2 or CH4/O2): give a mixture as well.")
+        return None
+    case = case._replace(**overrides)
+    if case.sensitivity_time > case.end_time:
+        raise InputError(f"sensitivity_time = {case.sensitivity_time:g} s is after end_time = {case.end_time:g} s.")
+    return case
+
+
+def check_against_cantera(path: str | Path, *, phase: str | None = None, n_states: int = 120, seed: int = 0,
+                          mixture: str | None = None, case_overrides: dict | None = None, ignition: bool = True,
+                          sensitivities: bool = True, top: int = 10, n_times: int = 51,
+                          progress: bool = True) -> KineticsCheck:
     """Compare the mechanism at `path` with Cantera.
 
     **Arguments:** `n_states` random states for the rates (T in 300-2500 K for a gas, 280-400 K
-    for a condensed phase; pressures 1e3-1e7 Pa); `case` (default: `default_case`) for the
-    constant-volume adiabatic ignition saved at `n_times` times; `sensitivities`: the `top`
-    largest d ln T / d ln A_i at the case's `sensitivity_time` (default: 0.9 x Cantera's delay).
+    for a condensed phase; pressures 1e3-1e7 Pa); the constant-volume adiabatic ignition, saved
+    at `n_times` times, of `mixture` (Cantera's mole ratios; default: `default_case`) with any
+    `IgnitionCase` field replaced by `case_overrides` (temperature [K], pressure [Pa], end_time
+    [s], sensitivity_time [s]); `sensitivities`: the `top` largest d ln T / d ln A_i at the
+    case's `sensitivity_time` (default: 0.9 x Cantera's delay).
 
-    **Returns:** a dictionary with "rates", and "ignition" / "sensitivities" (each with "skipped"
-    and the reason where they do not apply: a condensed phase, or no H2/O2 or CH4/O2 mixture).
+    **Returns:** a `KineticsCheck` ("ignition" and "sensitivities" say "skipped" and why where
+    they do not apply: a condensed phase, or no H2/O2 or CH4/O2 mixture).
 
     **Raises:** `InputError` for a missing file, an unsupported mechanism, or bad options.
     """
@@ -69,7 +131,7 @@ def check_mechanism(path: str | Path, *, phase: str | None = None, n_states: int
         "rates": {**rates._asdict(), "temperature_range_K": list(temperatures)},
     }
     stages.update()
-    case = default_case(mechanism, path) if case is None else case
+    case = ignition_case(mechanism, path, mixture, case_overrides or {})
     reason = (None if gas and case is not None else
               "a condensed phase: Cantera runs it only at constant pressure" if not gas else
               "no H2/O2 or CH4/O2 in the mechanism; give a mixture")
@@ -77,7 +139,7 @@ def check_mechanism(path: str | Path, *, phase: str | None = None, n_states: int
         result["ignition"] = {"skipped": reason or "not asked for"}
         result["sensitivities"] = {"skipped": reason or "needs the ignition"}
         stages.close()
-        return result
+        return KineticsCheck(**result)
     times = np.linspace(0.0, case.end_time, n_times)
     reference = cantera_ignition(path, case, times, phase=phase)
     concentrations = initial_concentrations(path, case, phase)
@@ -94,7 +156,7 @@ def check_mechanism(path: str | Path, *, phase: str | None = None, n_states: int
     if not sensitivities:
         result["sensitivities"] = {"skipped": "not asked for"}
         stages.close()
-        return result
+        return KineticsCheck(**result)
     time = case.sensitivity_time if np.isfinite(case.sensitivity_time) else 0.9 * reference.delay
     ours_sensitivity, _ = temperature_sensitivities(mechanism, jnp.asarray(concentrations), case, time,
                                                     _SENSITIVITY_SETTINGS)
@@ -109,25 +171,4 @@ def check_mechanism(path: str | Path, *, phase: str | None = None, n_states: int
     }
     stages.update()
     stages.close()
-    return result
-
-
-def summary(result: dict) -> str:
-    """A few lines for the terminal."""
-    rates = result["rates"]
-    lines = [f"{result['mechanism']}: {result['n_species']} species, {result['n_reactions']} reactions ({result['thermo']})",
-             f"  rates at {rates['n_states']} random states: max relative error {rates['net_production']:.2e} (net "
-             f"production), {rates['rates_of_progress']:.2e} (rates of progress)"]
-    ignition = result["ignition"]
-    if "skipped" in ignition:
-        lines.append(f"  ignition: skipped ({ignition['skipped']})")
-    else:
-        lines.append(f"  ignition delay {ignition['delay_s'] * 1e3:.6f} ms vs Cantera {ignition['cantera_delay_s'] * 1e3:.6f} "
-                     f"ms: relative error {ignition['delay_relative_error']:.2e}; T history "
-                     f"{ignition['temperature_max_relative_error']:.2e}")
-    sensitivity = result["sensitivities"]
-    if "skipped" not in sensitivity:
-        lines.append(f"  top {len(sensitivity['top'])} d ln T / d ln A at {sensitivity['time_s'] * 1e3:.4f} ms: max "
-                     f"relative difference {sensitivity['max_relative_difference']:.2e}, same ranking: "
-                     f"{sensitivity['same_ranking']}")
-    return "\n".join(lines)
+    return KineticsCheck(**result)

@@ -11,10 +11,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import InputError, check_range
+from snapo_ode import InputError, SolverSettings, check_range
 
 from ._mechanism import Mechanism
-from ._reactor import Reactor, SolverSettings, Trajectory, simulate
+from ._reactor import REACTOR_SOLVER, Reactor, Trajectory, simulate
 from ._units import ONE_ATM
 
 IGNITION_RISE = 400.0
@@ -87,7 +87,7 @@ class IgnitionResult(NamedTuple):
 
 
 def solve_ignition(mechanism: Mechanism, concentrations, case: IgnitionCase, times, *,
-                   settings: SolverSettings = SolverSettings(), rise: float = IGNITION_RISE):
+                   settings: SolverSettings = REACTOR_SOLVER, rise: float = IGNITION_RISE):
     """Our constant-volume adiabatic ignition from `concentrations` [kmol/m^3] at
     `case.temperature`, saved at `times` [s]: an `IgnitionResult`."""
     reactor = Reactor(mechanism, "constant-volume", ("energy",))

@@ -12,14 +12,14 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
-from jaxtyping import Array, Float
 
-from snapo_ode import EffectCatalogue, InputError, Rodas4, Scene, check_choice, check_increasing, check_range
-from snapo_ode._ode import diffeqsolve_checked
+from snapo_ode import EffectCatalogue, InputError, Scene, SolverSettings, check_choice, check_increasing, check_range
 
-from ._mechanism import Mechanism, RateParameters
+from ._mechanism import Mechanism
+from ._rate_laws import RateParameters
 from ._units import GAS_CONSTANT
+from ._types import Scalar, Vector
+
 
 REACTOR_EFFECTS = EffectCatalogue(
     "reactor",
@@ -31,60 +31,12 @@ REACTOR_EFFECTS = EffectCatalogue(
     requires={"jacket": ("energy",)},
 )
 ReactorKind = Literal["constant-volume", "constant-pressure"]
-RootFinder = Literal["newton", "chord"]
 
 
-class SolverSettings(eqx.Module):
-    """How a reactor is integrated: Rodas4 (4th-order Rosenbrock, default) or Kvaerno5
-    (5th-order ESDIRK), with an adaptive step.
-
-    - `rtol`, `atol`: tolerances on the scaled state [T / T0, N_k / N_total0].
-    - `method`: "rodas4" (`snapo_ode.Rodas4`: one Jacobian, from the mechanism's closed-form
-      concentration Jacobian, and one LU a step) or "kvaerno5". Rodas4 is the default although
-      the issue named Kvaerno5/KenCarp, because it is the one that holds up (measured, rtol 1e-8,
-      whole ignitions): h2o2 in 910 accepted + 61 rejected steps, where Kvaerno5 with the chord
-      root finder took 3,642 + 4,481 and, after a change at round-off level in the rates, hit
-      max_steps; and its reverse pass has no root finder's implicit derivative, which failed
-      on rejected steps of a gri30 ignition (docs/chemistry.md).
-    - `root_finder` (Kvaerno5 only): "chord" (`diffrax.VeryChord` with `kappa`) or "newton"
-      (`optimistix.Newton`, fewer steps before an ignition, but it stalls after the front).
-    - `pcoeff`, `icoeff`: the PID step-size controller's coefficients (0, 1: a plain
-      integral controller).
-    - `max_steps`: the solve raises (with advice) if it needs more.
-    - `adjoint`: a `diffrax` adjoint; default `RecursiveCheckpointAdjoint` with a checkpoint a
-      step (no step is recomputed from an earlier checkpoint: with Diffrax's default the
-      reverse pass through Rodas4 drifted from forward mode, docs/pharma.md). `BacksolveAdjoint`
-      is refused on these stiff models.
-    """
-
-    rtol: float = eqx.field(static=True, default=1e-8)
-    atol: float = eqx.field(static=True, default=1e-11)
-    root_finder: str = eqx.field(static=True, default="chord")
-    method: str = eqx.field(static=True, default="rodas4")
-    kappa: float = eqx.field(static=True, default=0.5)
-    pcoeff: float = eqx.field(static=True, default=0.0)
-    icoeff: float = eqx.field(static=True, default=1.0)
-    max_steps: int = eqx.field(static=True, default=20_000)
-    adjoint: diffrax.AbstractAdjoint | None = eqx.field(static=True, default=None)
-
-    def __check_init__(self):
-        check_range("rtol", self.rtol, 0.0, 1.0, low_open=True, high_open=True)
-        check_range("atol", self.atol, 0.0, 1.0, low_open=True, high_open=True)
-        check_choice("root_finder", self.root_finder, ("newton", "chord"))
-        check_choice("method", self.method, ("kvaerno5", "rodas4"))
-        check_range("kappa", self.kappa, 0.0, 1.0, low_open=True)
-        check_range("max_steps", self.max_steps, 1)
-
-    def controller(self) -> diffrax.PIDController:
-        return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff)
-
-    def solver(self, jacobian=None) -> diffrax.AbstractAdaptiveSolver:
-        """The solver; `jacobian(t, state, args)`, the model's exact Jacobian, serves Rodas4."""
-        if self.method == "rodas4":
-            return Rodas4(jacobian=jacobian)
-        if self.root_finder == "newton":
-            return diffrax.Kvaerno5(root_finder=optx.Newton(rtol=self.rtol, atol=self.atol))
-        return diffrax.Kvaerno5(root_finder=diffrax.VeryChord(rtol=self.rtol, atol=self.atol, kappa=self.kappa))
+REACTOR_SOLVER = SolverSettings(atol=1e-11, root_finder="chord")
+"""The reactors' default `snapo_ode.SolverSettings`: Rodas4 at rtol 1e-8 / atol 1e-11 on the
+scaled state [T / T0, N_k / N_total0], 20,000 steps at most; for Kvaerno5, the chord root finder
+(Newton takes fewer steps before an ignition but stalls after the front)."""
 
 
 class Reactor(eqx.Module):
@@ -106,12 +58,12 @@ class Reactor(eqx.Module):
     mechanism: Mechanism
     scene: Scene = eqx.field(static=True)
     kind: str = eqx.field(static=True)
-    pressure: Float[Array, ""]
-    heat_transfer: Float[Array, ""]
-    jacket_temperature: Float[Array, ""]
-    residence_time: Float[Array, ""]
-    feed_concentrations: Float[Array, " s"]
-    feed_temperature: Float[Array, ""]
+    pressure: Scalar
+    heat_transfer: Scalar
+    jacket_temperature: Scalar
+    residence_time: Scalar
+    feed_concentrations: Vector
+    feed_temperature: Scalar
 
     def __init__(self, mechanism: Mechanism, kind: ReactorKind = "constant-volume", effects=(), *,
                  pressure=101325.0, heat_transfer=0.0, jacket_temperature=300.0, residence_time=1.0,
@@ -194,16 +146,16 @@ class Trajectory(NamedTuple):
     `amounts` [kmol] and `concentrations` [kmol/m^3] (shape `(n_t, n_species)`), `volume`
     [m^3] (shape `(n_t,)`), and the `diffrax.Solution` (its `stats`, and dense output when asked)."""
 
-    times: Array
-    temperature: Array
-    amounts: Array
-    concentrations: Array
-    volume: Array
+    times: jax.Array
+    temperature: jax.Array
+    amounts: jax.Array
+    concentrations: jax.Array
+    volume: jax.Array
     solution: diffrax.Solution
 
 
 def simulate(reactor: Reactor, temperature, concentrations, times, *, volume=1.0,
-             parameters: RateParameters | None = None, settings: SolverSettings = SolverSettings(),
+             parameters: RateParameters | None = None, settings: SolverSettings = REACTOR_SOLVER,
              dense: bool = False) -> Trajectory:
     """Integrate `reactor` from `temperature` [K] and `concentrations` [kmol/m^3] (shape
     `(n_species,)`) in `volume` [m^3], saving at `times` [s] (shape `(n_t,)`, from t = 0).
@@ -244,14 +196,8 @@ def simulate(reactor: Reactor, temperature, concentrations, times, *, volume=1.0
     n_scaled = amounts0 / amount_scale
     state0 = jnp.concatenate([jnp.ones(1), n_scaled]) if energy else n_scaled
     times = jnp.asarray(times, float)
-    solution = diffeqsolve_checked(
-        diffrax.ODETerm(vector_field), settings.solver(energy_jacobian if energy else None), 0.0, times[-1], None,
-        state0,
-        saveat=diffrax.SaveAt(ts=times, dense=dense),
-        stepsize_controller=settings.controller(),
-        adjoint=settings.adjoint or diffrax.RecursiveCheckpointAdjoint(checkpoints=settings.max_steps),
-        max_steps=settings.max_steps,
-    )
+    solution = settings.solve(vector_field, 0.0, times[-1], state0, saveat=diffrax.SaveAt(ts=times, dense=dense),
+                              jacobian=energy_jacobian if energy else None)
     ys = solution.ys
     temperatures = ys[:, 0] * temperature if energy else jnp.full(times.shape, temperature)
     amounts = (ys[:, 1:] if energy else ys) * amount_scale

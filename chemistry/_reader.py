@@ -9,7 +9,7 @@ from ruamel.yaml import YAML
 from snapo_ode import InputError
 
 from ._equation import parse_equation
-from ._mechanism import Falloff, Orders, RateParameters, ThirdBodies
+from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
 from ._thermo import SpeciesThermo
 from ._units import GAS_CONSTANT, ONE_ATM, UnitSystem, rate_constant_factor
 

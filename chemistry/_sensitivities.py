@@ -10,13 +10,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from snapo_ode import SolverSettings
+
 from ._ignition import IgnitionCase
-from ._mechanism import Mechanism, RateParameters
-from ._reactor import Reactor, SolverSettings, simulate
+from ._mechanism import Mechanism
+from ._reactor import REACTOR_SOLVER, Reactor, simulate
 
 
 def final_temperature(log_multiplier, mechanism: Mechanism, concentrations, case: IgnitionCase, time,
-                      settings: SolverSettings = SolverSettings()):
+                      settings: SolverSettings = REACTOR_SOLVER):
     """T(`time`) [K] of the case's constant-volume adiabatic ignition from `concentrations`
     [kmol/m^3] with the rate multipliers exp(`log_multiplier`) (shape `(n_reactions,)`)."""
     parameters = eqx.tree_at(lambda p: p.log_multiplier, mechanism.parameters, log_multiplier)
@@ -28,7 +30,7 @@ def final_temperature(log_multiplier, mechanism: Mechanism, concentrations, case
 
 @eqx.filter_jit
 def temperature_sensitivities(mechanism: Mechanism, concentrations, case: IgnitionCase, time,
-                              settings: SolverSettings = SolverSettings()):
+                              settings: SolverSettings = REACTOR_SOLVER):
     """d ln T(`time`) / d ln A_i for every reaction i, shape `(n_reactions,)`, from one reverse
     pass (diffrax's `RecursiveCheckpointAdjoint`), and T(`time`) [K]."""
     temperature, gradient = jax.value_and_grad(final_temperature)(

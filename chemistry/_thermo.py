@@ -3,7 +3,7 @@ evaluated for all species at once."""
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Bool, Float
+from ._types import Mask, Matrix, Scalar, Vector
 
 
 class SpeciesThermo(eqx.Module):
@@ -15,27 +15,27 @@ class SpeciesThermo(eqx.Module):
     - `t0` [K], `h0_r` = h0/R [K], `s0_r` = s0/R [-], `cp0_r` = cp0/R [-]: constant-cp data.
     """
 
-    is_nasa: Bool[Array, " n"]
-    t_mid: Float[Array, " n"]
-    nasa_low: Float[Array, "n 7"]
-    nasa_high: Float[Array, "n 7"]
-    t0: Float[Array, " n"]
-    h0_r: Float[Array, " n"]
-    s0_r: Float[Array, " n"]
-    cp0_r: Float[Array, " n"]
+    is_nasa: Mask
+    t_mid: Vector
+    nasa_low: Matrix
+    nasa_high: Matrix
+    t0: Vector
+    h0_r: Vector
+    s0_r: Vector
+    cp0_r: Vector
 
     def _nasa(self, temperature):
         # Cantera picks the low range at T <= T_mid.
         return jnp.where((temperature <= self.t_mid)[:, None], self.nasa_low, self.nasa_high)
 
-    def cp_r(self, temperature: Float[Array, ""]) -> Float[Array, " n"]:
+    def cp_r(self, temperature: Scalar) -> Vector:
         """cp/R [-] at `temperature` [K]."""
         a = self._nasa(temperature)
         t = temperature
         nasa = a[:, 0] + t * (a[:, 1] + t * (a[:, 2] + t * (a[:, 3] + t * a[:, 4])))
         return jnp.where(self.is_nasa, nasa, self.cp0_r)
 
-    def h_rt(self, temperature: Float[Array, ""]) -> Float[Array, " n"]:
+    def h_rt(self, temperature: Scalar) -> Vector:
         """h/(R T) [-] at `temperature` [K]."""
         a = self._nasa(temperature)
         t = temperature
@@ -44,7 +44,7 @@ class SpeciesThermo(eqx.Module):
         constant = (self.h0_r + self.cp0_r * (t - self.t0)) / t
         return jnp.where(self.is_nasa, nasa, constant)
 
-    def s_r(self, temperature: Float[Array, ""]) -> Float[Array, " n"]:
+    def s_r(self, temperature: Scalar) -> Vector:
         """s/R [-] at `temperature` [K] and the reference pressure."""
         a = self._nasa(temperature)
         t = temperature
@@ -53,6 +53,6 @@ class SpeciesThermo(eqx.Module):
         constant = self.s0_r + self.cp0_r * jnp.log(t / self.t0)
         return jnp.where(self.is_nasa, nasa, constant)
 
-    def g_rt(self, temperature: Float[Array, ""]) -> Float[Array, " n"]:
+    def g_rt(self, temperature: Scalar) -> Vector:
         """g/(R T) = h/(R T) - s/R [-] at `temperature` [K] and the reference pressure."""
         return self.h_rt(temperature) - self.s_r(temperature)

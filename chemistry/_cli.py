@@ -1,0 +1,57 @@
+"""`snapo kinetics check` and `snapo bench kinetics`.
+
+Heavy imports (JAX, Cantera, the model) happen inside the handlers, so `snapo --help` stays quick.
+"""
+
+import pathlib
+
+from snapo_ode.cli import CommandLine
+
+CASE_FIELDS = ("temperature", "pressure", "end_time", "sensitivity_time")
+
+
+def run_check(args) -> int:
+    from ._check import check_against_cantera
+
+    overrides = {field: getattr(args, field) for field in CASE_FIELDS if getattr(args, field) is not None}
+    result = check_against_cantera(args.mechanism, phase=args.phase, n_states=args.states, seed=args.seed,
+                                   mixture=args.mixture, case_overrides=overrides, ignition=not args.no_ignition,
+                                   sensitivities=not args.no_sensitivities, progress=args.progress)
+    print(result.summary())
+    print(f"  written: {result.write_json(args.json)}")
+    return 0
+
+
+def run_bench(args) -> int:
+    from ._bench import run_kinetics_benchmark
+
+    run_kinetics_benchmark(args.out, mechanisms=args.mechanisms, repeats=args.repeats)
+    return 0
+
+
+def register_kinetics(cli: CommandLine) -> None:
+    """Add `snapo kinetics check` and `snapo bench kinetics`."""
+    kinetics = cli.group("kinetics", "Cantera-YAML kinetics: check a mechanism against Cantera")
+    check = cli.command("check", "rates at random states, constant-volume ignition and d ln T / d ln A against "
+                        "Cantera", group=kinetics)
+    check.add_argument("mechanism", type=pathlib.Path, metavar="MECH.yaml")
+    check.add_argument("--phase", help="phase name (default: the file's first)")
+    check.add_argument("--states", type=int, default=120, help="random states of the rate comparison")
+    check.add_argument("--mixture", help="ignition mixture in Cantera's mole ratios, e.g. 'H2:2,O2:1,N2:3.76' "
+                       "(default: H2/O2 or CH4/air when the mechanism has them)")
+    check.add_argument("--temperature", type=float, help="ignition start temperature [K] (default: the case's, "
+                       "1000 K for H2/O2, 1500 K for CH4/air)")
+    check.add_argument("--pressure", type=float, help="ignition start pressure [Pa] (default 1 atm)")
+    check.add_argument("--end-time", type=float, help="ignition end time [s] (default: the case's)")
+    check.add_argument("--sensitivity-time", type=float, help="time of d ln T / d ln A [s] (default: the case's, "
+                       "else 0.9 x the delay)")
+    check.add_argument("--no-ignition", action="store_true", help="rates only")
+    check.add_argument("--no-sensitivities", action="store_true", help="skip the sensitivity comparison")
+    check.set_defaults(handler=run_check)
+    bench = cli.bench("kinetics", "forward solve and gradient wrt every A-factor vs Cantera with and without "
+                      "forward sensitivities, at equal tolerance")
+    bench.add_argument("--mechanisms", nargs="+", default=["h2o2", "gri30"], choices=["h2o2", "gri30"],
+                       help="built-in ignition cases (gri30: ~3 minutes, most of it compiling and Cantera's "
+                            "325 sensitivities)")
+    bench.add_argument("--repeats", type=int, default=5)
+    bench.set_defaults(handler=run_bench)

@@ -1,0 +1,148 @@
+"""The rate laws of a mechanism's reaction types, each evaluated for all its reactions at once:
+the differentiable rate parameters, three-body efficiencies, falloff (Lindemann, Troe) and the
+concentration products of mass action with their orders."""
+
+import functools
+import operator
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from ._types import IndexMatrix, Indices, Matrix, Vector
+
+# Cantera's guard against a zero high-pressure rate in the reduced pressure.
+_SMALL = 1e-300
+
+
+class RateParameters(eqx.Module):
+    """The differentiable rate parameters, one entry per reaction (shape `(n_reactions,)`).
+
+    k_f = A T^b exp(-T_a / T) exp(log_multiplier); for falloff reactions the multiplier scales
+    the whole falloff rate and `temperature_exponent`/`activation_temperature` are the
+    high-pressure limit's.
+
+    - `log_multiplier`: ln of Cantera's rate multiplier [-] (0 = as in the file).
+    - `temperature_exponent`: b [-].
+    - `activation_temperature`: T_a = Ea / R [K].
+    """
+
+    log_multiplier: Vector
+    temperature_exponent: Vector
+    activation_temperature: Vector
+
+
+class ThirdBodies(eqx.Module):
+    """Three-body reactions `index` (shape `(t,)`) with collision efficiencies `(t, n_species)`."""
+
+    index: Indices
+    efficiencies: Matrix
+
+
+class Falloff(eqx.Module):
+    """Falloff reactions (Lindemann and Troe; Lindemann is Troe with F_cent = 1).
+
+    - `index`: shape `(f,)`; `efficiencies`: `(f, n_species)`.
+    - `low_a` [kmol, m^3, s units of one order more than the high-pressure limit], `low_b` [-],
+      `low_activation_temperature` [K]: the low-pressure Arrhenius limit.
+    - `troe_a` [-], `troe_inv_t3` = 1/T3 [1/K], `troe_inv_t1` = 1/T1 [1/K], `troe_t2` [K],
+      `troe_has_t2` (0 or 1): the Troe centring; 1/T = 0 stands for an infinite or absent T.
+    """
+
+    index: Indices
+    efficiencies: Matrix
+    low_a: Vector
+    low_b: Vector
+    low_activation_temperature: Vector
+    troe_a: Vector
+    troe_inv_t3: Vector
+    troe_inv_t1: Vector
+    troe_t2: Vector
+    troe_has_t2: Vector
+
+    def rate(self, temperature, log_t, k_high, collision):
+        """The falloff rate constants, shape `(f,)`, from the high-pressure limits `k_high` and
+        each reaction's collision partner concentration `collision` (`efficiencies @ c`)."""
+        k_low = self.low_a * jnp.exp(self.low_b * log_t - self.low_activation_temperature / temperature)
+        reduced_pressure = collision * k_low / (k_high + _SMALL)
+        f_cent = ((1 - self.troe_a) * jnp.exp(-temperature * self.troe_inv_t3)
+                  + self.troe_a * jnp.exp(-temperature * self.troe_inv_t1)
+                  + self.troe_has_t2 * jnp.exp(-self.troe_t2 / temperature))
+        log_f_cent = jnp.log10(jnp.maximum(f_cent, _SMALL))
+        log_pr = jnp.log10(jnp.maximum(reduced_pressure, _SMALL))
+        c = -0.4 - 0.67 * log_f_cent
+        n = 0.75 - 1.27 * log_f_cent
+        f1 = (log_pr + c) / (n - 0.14 * (log_pr + c))
+        broadening = 10.0 ** (log_f_cent / (1 + f1 * f1))
+        return k_high * reduced_pressure / (1 + reduced_pressure) * broadening
+
+
+def _integer_slots(order):
+    """Where `order` (a NumPy or JAX array) is 0, 1, 2 or 3: the slots computed as products."""
+    return (order == order.round()) & (order >= 0.0) & (order <= 3.0)
+
+
+class Orders(eqx.Module):
+    """Concentration products prod_j c[index[i, j]] ** order[i, j] over padded slots; a padding
+    slot points at an extra entry fixed at 1, so a species absent from a reaction never enters
+    its product.
+
+    Orders 0 to 3 are evaluated as products (c, c * c, ...), not as `c ** order`: the power's
+    second derivative at c = 0 is 0 * inf = NaN, and the reverse pass of a Rosenbrock solve
+    (which differentiates the Jacobian) meets it at every species that starts at zero. Other
+    orders (explicit fractional `orders`) use the power, its derivatives singular at c = 0 as
+    the rate law's are. `fractional` says (statically) whether any slot has such an order: when
+    none has, the power is not computed at all (gri30: a general power on every slot was 40% of
+    a Rosenbrock step, measured).
+
+    Build with `Orders.of(index, order)`, which sets `fractional` from the orders."""
+
+    index: IndexMatrix
+    order: Matrix
+    fractional: bool = eqx.field(static=True)
+
+    @classmethod
+    def of(cls, index, order) -> "Orders":
+        """`Orders` of the species `index` (shape `(r, w)`) with `order`, shape `(r, w)`."""
+        order = np.asarray(order, float)
+        return cls(jnp.asarray(index), jnp.asarray(order), not bool(np.all(_integer_slots(order))))
+
+    def _factors(self, padded_concentrations):
+        """Each slot's c ** order and its derivative, shape `(r, w)` each."""
+        c = padded_concentrations[self.index]
+        order = self.order
+        squared = c * c
+        integer = jnp.where(order == 0.0, 1.0, jnp.where(order == 1.0, c, jnp.where(
+            order == 2.0, squared, squared * c)))
+        integer_slope = jnp.where(order == 0.0, 0.0, jnp.where(order == 1.0, 1.0, jnp.where(
+            order == 2.0, 2.0 * c, 3.0 * squared)))
+        if not self.fractional:
+            return integer, integer_slope
+        is_integer = _integer_slots(order)
+        # The power of a base set to 1 on the integer slots, so its derivatives there are finite.
+        base = jnp.where(is_integer, 1.0, c)
+        return (jnp.where(is_integer, integer, base**order),
+                jnp.where(is_integer, integer_slope, order * base ** (order - 1.0)))
+
+    def product(self, padded_concentrations):
+        """prod_j c_j ** order_j of each reaction, shape `(r,)`."""
+        factors, _ = self._factors(padded_concentrations)
+        return functools.reduce(operator.mul, [factors[:, j] for j in range(factors.shape[1])])
+
+    def partials(self, padded_concentrations):
+        """d product / d c at each slot (the slot's species `index[i, j]`), shape `(r, w)`."""
+        factors, slopes = self._factors(padded_concentrations)
+        width = factors.shape[1]
+        others = [[factors[:, i] for i in range(width) if i != j] for j in range(width)]
+        return jnp.stack([functools.reduce(operator.mul, [slopes[:, j], *others[j]]) for j in range(width)], axis=1)
+
+    def contract(self, changed_species, changes, coefficients, n_species: int):
+        """sum_r,i,j changes[r, i] coefficients[r, j] e_{changed_species[r, i]} e_{index[r, j]}^T,
+        shape `(n_species, n_species)`: the net stoichiometry times a matrix that is non-zero only
+        at the slots, as one scatter of r x q x w entries (q species changed by a reaction, w
+        slots) rather than a dense n_species x r x n_species product (gri30: 150 us on this
+        CPU) or a scatter of whole stoichiometry rows (100 us)."""
+        jacobian = jnp.zeros((n_species + 1, n_species + 1), coefficients.dtype)
+        jacobian = jacobian.at[changed_species[:, :, None], self.index[:, None, :]].add(
+            changes[:, :, None] * coefficients[:, None, :])
+        return jacobian[:-1, :-1]
