@@ -1,39 +1,30 @@
 """chemistry.pharma: a 4-unit API manufacturing chain (R1 synthesis, R2 hold, cooling
-crystallizer, filter-dryer) as stiff Diffrax solves, its ICH Q8 sensitivities (every CQA to every
-CPP and to every kinetic and physical parameter), design space and report."""
+crystallizer, filter-dryer) as Diffrax solves composed of units, its ICH Q8 sensitivities (every
+CQA to every CPP and to every kinetic and physical parameter), design space, trained temperature
+profiles and report. Public names load on first use (see `snapo_ode.lazy_exports`)."""
 
-from ._chain import (
-    DEFAULT_MECHANISM as DEFAULT_MECHANISM,
-    PHARMA_EFFECTS as PHARMA_EFFECTS,
-    ChainResult as ChainResult,
-    PharmaChain as PharmaChain,
-)
-from ._cqa import (
-    cqa_dict as cqa_dict,
-    cqa_vector as cqa_vector,
-    meets_specs as meets_specs,
-    spec_margins as spec_margins,
-    spec_penalty as spec_penalty,
-)
-from ._parameters import (
-    CPP_NAMES as CPP_NAMES,
-    CPP_RANGES as CPP_RANGES,
-    CQA_NAMES as CQA_NAMES,
-    CQA_SPECS as CQA_SPECS,
-    MOLAR_MASSES as MOLAR_MASSES,
-    PHYSICAL_NAMES as PHYSICAL_NAMES,
-    CPPs as CPPs,
-    ParameterRange as ParameterRange,
-    PhysicalParameters as PhysicalParameters,
-    Specification as Specification,
-    default_physical_parameters as default_physical_parameters,
-    make_cpps as make_cpps,
-    outside_par as outside_par,
-)
-from ._profiles import (
-    AbstractTemperatureProfile as AbstractTemperatureProfile,
-    ConstantTemperature as ConstantTemperature,
-    LinearRamp as LinearRamp,
-    NeuralTemperature as NeuralTemperature,
-)
-from ._solver import ChainSolver as ChainSolver
+from snapo_ode import lazy_exports
+
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "._bench": ("run_pharma_benchmark",),
+    "._chain": ("CHAIN_SOLVER", "DEFAULT_MECHANISM", "PHARMA_EFFECTS", "ChainResult", "PharmaChain", "chain_species"),
+    "._cqa": ("cqa_dict", "cqa_vector", "meets_specs", "spec_margins", "spec_penalty"),
+    "._crystallizer": ("CoolingCrystallizer", "Crystallizer", "CrystallizerOutlet", "EquilibriumIsolation", "Slurry",
+                       "SpeciesRoles", "solubility"),
+    "._design_space": ("DesignSpace", "design_space"),
+    "._dryer": ("Dryer", "DryerOutlet"),
+    "._filter": ("Filter",),
+    "._liquid": ("HoldReactor", "LiquidBatch", "SynthesisReactor", "TEMPERATURE_SCALE"),
+    "._parameters": ("MOLAR_MASSES", "PHYSICAL_NAMES", "ChainInputs", "CPPs", "PhysicalParameters", "arrhenius",
+                     "default_physical_parameters", "make_cpps", "outside_par"),
+    "._policy": ("ProfileStudy", "Profiles", "evaluate_hard", "train_profiles"),
+    "._profiles": ("AbstractTemperatureProfile", "ConstantTemperature", "LinearRamp", "NeuralTemperature"),
+    "._ranges": ("CPP_NAMES", "CPP_RANGES", "CQA_NAMES", "CQA_SPECS", "ParameterRange", "Specification"),
+    "._report": ("build_report", "write_report"),
+    "._sensitivities": ("cqa_function", "input_names", "input_scales", "jacobian_function", "named_jacobian",
+                        "parameter_names", "rate_names", "shifted_cqas"),
+    "._study": ("BUMP_SOLVER", "REFERENCE", "SensitivityStudy", "sensitivities", "sensitivity_study"),
+    "._unit": ("AbstractUnit", "Liquid", "Solids"),
+    "._verification": ("CanteraCheck", "cantera_check", "cantera_r1", "r1_outlet", "r1_trajectory", "scipy_r1",
+                       "stiffness_ratio"),
+})

@@ -1,6 +1,7 @@
 """The four-unit chain: R1 (jacketed plug-flow synthesis) -> R2 (hold) -> cooling crystallizer ->
-filter (algebraic) -> dryer, each unit a stiff Diffrax solve whose outlet feeds the next, so
-gradients flow across units. Assembled from named effects."""
+filter (algebraic) -> dryer, each a unit (`_unit.AbstractUnit`) whose outlet feeds the next, so
+gradients flow across units. Assembled from named effects: an effect left out is a unit or a
+reaction that is not built, not one multiplied by zero."""
 
 import dataclasses
 from pathlib import Path
@@ -10,17 +11,20 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
 
 from chemistry import MECHANISMS, Mechanism, RateParameters
-from snapo_ode import EffectCatalogue, InputError, Scene
+from snapo_ode import EffectCatalogue, InputError, Scene, SolverSettings
 
-from ._crystallizer import Crystallizer, CrystallizerOutlet, solubility
-from ._dryer import Dryer, DryerOutlet
-from ._liquid import LiquidBatch, LiquidOutlet
-from ._parameters import CPPs, MOLAR_MASSES, REACTIONS, SPECIES, PhysicalParameters
-from ._profiles import AbstractTemperatureProfile, ConstantTemperature, LinearRamp
-from ._solver import ChainSolver
+from .._types import Scalar, Vector
+from ._crystallizer import (
+    Crystallizer, CrystallizerOutlet, CoolingCrystallizer, EquilibriumIsolation, SpeciesRoles)
+from ._dryer import Dryer
+from ._filter import Filter
+from ._liquid import HoldReactor, LiquidBatch, SynthesisReactor
+from ._parameters import MOLAR_MASSES, ChainInputs, CPPs, PhysicalParameters, default_physical_parameters
+from ._profiles import AbstractTemperatureProfile
+from ._ranges import REACTIONS, SPECIES
+from ._unit import Liquid, Solids
 
 PHARMA_EFFECTS = EffectCatalogue(
     "pharma chain",
@@ -38,27 +42,32 @@ PHARMA_EFFECTS = EffectCatalogue(
 DEFAULT_MECHANISM = MECHANISMS / "pharma.yaml"
 
 
-class ChainResult(NamedTuple):
-    """Every unit's outlet, the cake entering the dryer and the product.
+CHAIN_SOLVER = SolverSettings(max_steps=4096, root_rtol=1e-6, root_atol=1e-9)
+"""The chain's default `SolverSettings`: Rodas4 for R1 and R2 (their Jacobians' largest
+eigenvalue is ~1e5-1e6 per unit duration), Tsit5 for the crystallizer and the dryer (below ~20
+per unit duration at every PAR corner, tested), rtol 1e-8 / atol 1e-10 on the scaled states
+(concentrations [kmol/m^3], T / 300 K, moments scaled to O(1)), 4,096 steps per unit; for an
+ESDIRK solver, Newton on the stage equations at rtol 1e-6 / atol 1e-9 (see `SolverSettings`)."""
 
-    - `r1`, `r2`: `LiquidOutlet`s (amounts per m^3 of R1's feed volume).
+
+class ChainResult(NamedTuple):
+    """Every unit's outlet.
+
+    - `r1`, `r2`: `Liquid` (amounts per m^3 of R1's feed volume).
     - `liquor`: molar concentrations entering the crystallizer [kmol/m^3], shape (n_species,).
     - `crystallizer`: `CrystallizerOutlet` (per m^3 of liquor).
-    - `cake`: dict of masses entering the dryer [kg per m^3 of liquor]: api, impurity,
-      degradant, other (retained A, B, X), solvent.
-    - `dryer`: `DryerOutlet` (per kg of cake solids).
-    - `product`: dict of masses in the dried product [kg per m^3 of liquor], same keys as `cake`.
+    - `cake`: the `Solids` entering the dryer [kg per m^3 of liquor].
+    - `product`: the dried `Solids` [kg per m^3 of liquor] (the cake without the drying effect).
     - `api_yield` [%]: API in the product over A fed, in moles.
     """
 
-    r1: LiquidOutlet
-    r2: LiquidOutlet
-    liquor: Float[Array, " s"]
+    r1: Liquid
+    r2: Liquid
+    liquor: Vector
     crystallizer: CrystallizerOutlet
-    cake: dict
-    dryer: DryerOutlet | None
-    product: dict
-    api_yield: Float[Array, ""]
+    cake: Solids
+    product: Solids
+    api_yield: Scalar
 
 
 def _reduce(mechanism: Mechanism, keep: tuple[int, ...]) -> Mechanism:
@@ -76,7 +85,7 @@ def _reduce(mechanism: Mechanism, keep: tuple[int, ...]) -> Mechanism:
     )
 
 
-def check_mechanism(mechanism: Mechanism, path) -> dict[str, int]:
+def chain_species(mechanism: Mechanism, path) -> dict[str, int]:
     """The indices of the species and reactions the chain needs.
 
     **Raises:** `InputError` naming the missing species or reaction (and the file).
@@ -98,34 +107,35 @@ def check_mechanism(mechanism: Mechanism, path) -> dict[str, int]:
 
 
 class PharmaChain(eqx.Module):
-    """The chain as one differentiable function of (CPPs, rate parameters, physical parameters).
+    """The chain as one differentiable function of its `ChainInputs` (CPPs, rate parameters,
+    physical parameters).
 
     **Arguments:**
     - `mechanism`: the kinetics (default: `chemistry/mechanisms/pharma.yaml`), or a path.
     - `scene`: the active effects (default: all of `PHARMA_EFFECTS`).
-    - `solver`: `ChainSolver` (tolerances, solver, differentiation mode).
+    - `solver`: `SolverSettings` of every unit (default `CHAIN_SOLVER`).
     """
 
     mechanism: Mechanism
     scene: Scene = eqx.field(static=True)
-    solver: ChainSolver = eqx.field(static=True)
+    solver: SolverSettings = eqx.field(static=True)
     species: tuple[tuple[str, int], ...] = eqx.field(static=True)
     active_reactions: tuple[int, ...] = eqx.field(static=True)
-    molar_masses: Float[Array, " s"]
+    molar_masses: Vector
 
     def __init__(self, mechanism: Mechanism | str | Path | None = None, scene: Scene | None = None,
-                 solver: ChainSolver | None = None):
+                 solver: SolverSettings | None = None):
         path = DEFAULT_MECHANISM if mechanism is None else mechanism
         self.mechanism = mechanism if isinstance(mechanism, Mechanism) else Mechanism.from_yaml(path)
-        self.species = tuple(check_mechanism(self.mechanism, path).items())
+        self.species = tuple(chain_species(self.mechanism, path).items())
         self.scene = PHARMA_EFFECTS.scene() if scene is None else scene
-        self.solver = ChainSolver() if solver is None else solver
+        self.solver = CHAIN_SOLVER if solver is None else solver
         self.active_reactions = tuple(
             self.mechanism.reaction_equations.index(equation) for equation, effect in REACTIONS.items()
             if not effect or self.scene.has(effect))
         self.molar_masses = jnp.asarray([MOLAR_MASSES[name] for name in self.mechanism.species_names])
 
-    def with_solver(self, solver: ChainSolver) -> "PharmaChain":
+    def with_solver(self, solver: SolverSettings) -> "PharmaChain":
         return PharmaChain(self.mechanism, self.scene, solver)
 
     def with_scene(self, scene: Scene) -> "PharmaChain":
@@ -139,13 +149,33 @@ class PharmaChain(eqx.Module):
     def species_index(self, name: str) -> int:
         return dict(self.species)[name]
 
-    def feed(self, temperature, rates: RateParameters, physical: PhysicalParameters, mechanism: Mechanism):
-        """R1's feed [kmol/m^3]: A (split with X at the side equilibrium when it is active), B, and
-        solvent filling the volume."""
+    def inputs(self, cpps: CPPs, rates: RateParameters | None = None,
+               physical: PhysicalParameters | None = None) -> ChainInputs:
+        """The `ChainInputs` at `cpps`, with the mechanism's rates and the default physical
+        parameters unless given."""
+        return ChainInputs(cpps, self.rate_parameters if rates is None else rates,
+                           default_physical_parameters() if physical is None else physical)
+
+    @property
+    def roles(self) -> SpeciesRoles:
+        return SpeciesRoles(*(self.species_index(name) for name in ("P", "I", "D", "S")))
+
+    def active(self, inputs: ChainInputs) -> tuple[Mechanism, ChainInputs]:
+        """The mechanism reduced to the reactions of the active effects, and `inputs` with their
+        rates only (what R1 and R2 see)."""
+        keep = np.asarray(self.active_reactions)
+        return (_reduce(self.mechanism, self.active_reactions),
+                inputs._replace(rates=jax.tree.map(lambda a: a[keep], inputs.rates)))
+
+    def feed(self, inputs: ChainInputs) -> Liquid:
+        """R1's feed [kmol/m^3] at the R1 temperature: A (split with X at the side equilibrium
+        when it is active), B, and solvent filling the volume."""
+        mechanism, active = self.active(inputs)
+        temperature, physical = inputs.cpps.r1_temperature, inputs.physical
         a, x, b, solvent = (self.species_index(n) for n in ("A", "X", "B", "S"))
         amounts = jnp.zeros(self.mechanism.n_species).at[b].set(physical.feed_b)
         if self.scene.has("side_reactions"):
-            forward, _ = mechanism.rates_of_progress(temperature, jnp.ones(self.mechanism.n_species), rates)
+            forward, _ = mechanism.rates_of_progress(temperature, jnp.ones(self.mechanism.n_species), active.rates)
             names = mechanism.reaction_equations
             constant = forward[names.index("A => X")] / forward[names.index("X => A")]
             amounts = amounts.at[a].set(physical.feed_a / (1 + constant)).at[x].set(
@@ -153,92 +183,33 @@ class PharmaChain(eqx.Module):
         else:
             amounts = amounts.at[a].set(physical.feed_a)
         volumes = self.mechanism.molar_volumes
-        return amounts.at[solvent].set((1 - amounts @ volumes) / volumes[solvent])
+        return Liquid(amounts.at[solvent].set((1 - amounts @ volumes) / volumes[solvent]), temperature)
 
-    def active_kinetics(self, rates: RateParameters) -> tuple[Mechanism, RateParameters]:
-        """The mechanism reduced to the reactions of the active effects, and their rates."""
-        keep = np.asarray(self.active_reactions)
-        return _reduce(self.mechanism, self.active_reactions), jax.tree.map(lambda a: a[keep], rates)
+    def r1(self, inputs: ChainInputs, *, jacket: AbstractTemperatureProfile | None = None) -> SynthesisReactor:
+        """The R1 unit (on the active reactions; `inputs` as `active` returns them)."""
+        mechanism, _ = self.active(inputs)
+        return SynthesisReactor(LiquidBatch(mechanism, self.scene.has("energy_balance")), jacket)
 
-    def run_r1(self, cpps: CPPs, rates: RateParameters, physical: PhysicalParameters, *,
-               r1_jacket: AbstractTemperatureProfile | None = None, steps: bool = False):
-        """R1, the jacketed plug-flow reactor (residence time [min] -> [s]): its `LiquidOutlet`,
-        or with `steps` the `diffrax.Solution` at every step (amounts [kmol/m^3], then T / 300 K
-        with the energy balance)."""
-        mechanism, active_rates = self.active_kinetics(rates)
-        jacket = ConstantTemperature(cpps.r1_temperature) if r1_jacket is None else r1_jacket
-        feed = self.feed(cpps.r1_temperature, active_rates, physical, mechanism)
-        return LiquidBatch(mechanism, self.scene.has("energy_balance"))(
-            feed, cpps.r1_temperature, jacket, 60.0 * cpps.r1_residence_time, active_rates, physical.jacket_ua,
-            self.solver, steps=steps)
-
-    def simulate(self, cpps: CPPs, rates: RateParameters | None = None, physical: PhysicalParameters | None = None,
-                 *, r1_jacket: AbstractTemperatureProfile | None = None,
+    def simulate(self, inputs: ChainInputs | CPPs, *, r1_jacket: AbstractTemperatureProfile | None = None,
                  cooling: AbstractTemperatureProfile | None = None) -> ChainResult:
-        """Run the chain. `rates` default to the mechanism's; `physical` to the defaults;
-        `r1_jacket` (default: constant at `cpps.r1_temperature`) and `cooling` (default: the
-        linear ramp from the hold to the final temperature at `cpps.cooling_rate`) may be
-        learned profiles."""
-        from ._parameters import default_physical_parameters
-
-        rates = self.mechanism.parameters if rates is None else rates
-        physical = default_physical_parameters() if physical is None else physical
-        mechanism, active_rates = self.active_kinetics(rates)
-        volumes = self.mechanism.molar_volumes
-        r1 = self.run_r1(cpps, rates, physical, r1_jacket=r1_jacket)
-        # R2: isothermal hold.
-        r2 = LiquidBatch(mechanism, False)(
-            r1.amounts, physical.hold_temperature, ConstantTemperature(physical.hold_temperature),
-            physical.hold_time, active_rates, physical.jacket_ua, self.solver)
-        liquor = r2.concentrations(volumes)
-        p, i, d, s = (self.species_index(n) for n in ("P", "I", "D", "S"))
-
-        # Crystallizer (or equilibrium isolation).
+        """Run the chain at `inputs` (`PharmaChain.inputs`; or `CPPs` alone, with the default
+        rates and physical parameters). `r1_jacket` (default: constant at `cpps.r1_temperature`)
+        and `cooling` (default: the linear ramp from the hold to the final temperature at
+        `cpps.cooling_rate`) may be learned profiles."""
+        if isinstance(inputs, CPPs):
+            inputs = self.inputs(inputs)
+        mechanism, active = self.active(inputs)
+        volumes, roles = self.mechanism.molar_volumes, self.roles
+        r1 = self.r1(inputs, jacket=r1_jacket)(self.feed(inputs), active, self.solver)
+        r2 = HoldReactor(LiquidBatch(mechanism, False))(r1, active, self.solver)
         if self.scene.has("crystallization"):
-            profile = LinearRamp(physical.hold_temperature, physical.final_temperature) if cooling is None else cooling
-            duration = 60.0 * (physical.hold_temperature - physical.final_temperature) / cpps.cooling_rate
-            crystallizer = Crystallizer(MOLAR_MASSES["P"], self.scene.has("impurity_incorporation"))(
-                liquor[p], liquor[i], liquor[d], profile, duration, physical, self.solver)
+            physics = Crystallizer(MOLAR_MASSES["P"], self.scene.has("impurity_incorporation"))
+            crystallizer = CoolingCrystallizer(physics, volumes, roles, cooling)
         else:
-            crystallizer = _equilibrium_isolation(liquor[p], physical)
-        crystal_mass = crystallizer.crystal_mass(physical)
-
-        # Filter: the cake keeps `cake_liquor` kg of liquid per kg of crystals; the wash leaves
-        # `wash_residue` of the liquor's solutes and replaces the rest with solvent.
-        final_liquor = (liquor.at[p].set(crystallizer.api)
-                        .at[i].add(-crystallizer.impurity_solid).at[d].add(-crystallizer.degradant_solid))
-        liquor_masses = final_liquor * self.molar_masses
-        retained = physical.wash_residue * physical.cake_liquor * crystal_mass * liquor_masses / jnp.sum(liquor_masses)
-        masses = self.molar_masses
-        impurity_solid = masses[i] * crystallizer.impurity_solid
-        degradant_solid = masses[d] * crystallizer.degradant_solid
-        cake = {
-            "api": crystal_mass - impurity_solid - degradant_solid + retained[p],
-            "impurity": impurity_solid + retained[i],
-            "degradant": degradant_solid + retained[d],
-            "other": jnp.sum(retained) - retained[p] - retained[i] - retained[d] - retained[s],
-            "solvent": physical.cake_liquor * crystal_mass,
-        }
-        solids = cake["api"] + cake["impurity"] + cake["degradant"] + cake["other"]
-
-        if self.scene.has("drying"):
-            dryer = Dryer(self.scene.has("degradation"))(
-                cake["solvent"] / solids, cake["api"] / solids, cpps.dryer_temperature, physical, self.solver)
-            product = dict(cake, api=solids * dryer.api, degradant=cake["degradant"] + solids * dryer.degradant_formed,
-                           solvent=solids * dryer.solvent)
-        else:
-            dryer, product = None, dict(cake)
-        fed = physical.feed_a / (r2.amounts @ volumes)  # [kmol A per m^3 of liquor]
-        api_yield = 100 * product["api"] / masses[p] / fed
-        return ChainResult(r1, r2, liquor, crystallizer, cake, dryer, product, api_yield)
-
-
-def _equilibrium_isolation(api, physical) -> CrystallizerOutlet:
-    """Without the crystallization effect: the API above its solubility at the final
-    temperature comes out as solid of the seed size (no kinetics, no incorporation)."""
-    solid = jnp.maximum(api - solubility(physical.final_temperature, physical), 0.0)
-    volume = solid * MOLAR_MASSES["P"] / physical.crystal_density  # [m^3/m^3]
-    count = volume / (physical.shape_factor * physical.seed_size**3)
-    moments = count * physical.seed_size ** jnp.arange(5)
-    zero = jnp.zeros_like(api)
-    return CrystallizerOutlet(api - solid, moments, zero, zero, physical.final_temperature)
+            crystallizer = EquilibriumIsolation(MOLAR_MASSES["P"], volumes, roles)
+        slurry = crystallizer(r2, inputs, self.solver)
+        cake = Filter(self.molar_masses, roles)(slurry, inputs, self.solver)
+        product = Dryer(self.scene.has("degradation"))(cake, inputs, self.solver) if self.scene.has("drying") else cake
+        fed = inputs.physical.feed_a / (r2.amounts @ volumes)  # [kmol A per m^3 of liquor]
+        api_yield = 100 * product.api / self.molar_masses[roles.api] / fed
+        return ChainResult(r1, r2, slurry.liquor, slurry.crystals, cake, product, api_yield)

@@ -1,12 +1,11 @@
-"""`snapo pharma sensitivities`, `snapo bench pharma` and `snapo report pharma`."""
+"""`snapo pharma sensitivities|train|design-space`, `snapo bench pharma` and `snapo report pharma`.
+
+Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` stays quick.
+"""
 
 import argparse
-import dataclasses
-import pathlib
 
-from ._parameters import CPP_RANGES
-
-DEFAULT_OUT = pathlib.Path("snapo-out")
+from ._ranges import CPP_RANGES
 
 
 def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,38 +26,32 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
 
 def chain_from_args(args):
     """The chain and the CPPs from parsed arguments, validated before any compile."""
-    from ._chain import PHARMA_EFFECTS, PharmaChain
+    from ._chain import CHAIN_SOLVER, PHARMA_EFFECTS, PharmaChain
     from ._parameters import make_cpps
-    from ._solver import ChainSolver
 
-    solver = ChainSolver(rtol=args.rtol, atol=args.atol, solver=args.solver, nonstiff_solver=args.nonstiff_solver)
+    solver = CHAIN_SOLVER.replace(rtol=args.rtol, atol=args.atol, solver=args.solver,
+                                  nonstiff_solver=args.nonstiff_solver)
     scene = PHARMA_EFFECTS.scene(without=args.without)
     cpps = make_cpps(**{spec.name: getattr(args, spec.name) for spec in CPP_RANGES})
     return PharmaChain(scene=scene, solver=solver), cpps
 
 
-def _write_json(path, payload) -> None:
-    from snapo_ode import atomic_write_json
-
-    if path:
-        atomic_write_json(path, payload)
-        print(f"written: {path}")
+def _finish(result, path) -> int:
+    print(result.summary())
+    print(f"written: {result.write_json(path)}")
+    return 0
 
 
 def run_sensitivities(args) -> int:
     from snapo_ode import check_choice
 
-    from ._study import REFERENCE, sensitivity_study, summary_table
+    from ._study import REFERENCE, sensitivity_study
 
     check_choice("mode", args.mode, ("auto", "reverse", "forward"))
     chain, cpps = chain_from_args(args)
-    reference = None if args.no_reference else dataclasses.replace(REFERENCE, rtol=args.reference_rtol,
-                                                                   atol=args.reference_atol)
-    study, _ = sensitivity_study(chain, cpps, mode=args.mode, repeats=args.repeats,
-                                 check_bumps=not args.no_bumps, reference=reference)
-    print(summary_table(study))
-    _write_json(args.json, study)
-    return 0
+    reference = None if args.no_reference else REFERENCE.replace(rtol=args.reference_rtol, atol=args.reference_atol)
+    return _finish(sensitivity_study(chain, cpps, mode=args.mode, repeats=args.repeats, check_bumps=not args.no_bumps,
+                                     reference=reference), args.json)
 
 
 def run_train(args) -> int:
@@ -67,31 +60,20 @@ def run_train(args) -> int:
     from ._policy import train_profiles
 
     chain, cpps = chain_from_args(args)
-    study, profiles = train_profiles(chain, cpps, steps=args.steps, learning_rate=args.learning_rate,
-                                     penalty_weight=args.penalty_weight, sharpness=args.sharpness, seed=args.seed)
-    for name in ("baseline", "trained"):
-        row = study[name]
-        print(f"{name:<9} yield {row['api_yield']:.2f}%  all specs met (hard): {row['meets_all_specs']}  "
-              f"smooth objective {row['smooth_objective']:.2f}  gap {row['gap']:.3f}")
-    if args.json:
-        save_policy(args.json.with_suffix(".r1.eqx"), profiles.r1_jacket.policy)
-        save_policy(args.json.with_suffix(".cooling.eqx"), profiles.cooling.policy)
-    _write_json(args.json, study)
-    return 0
+    study = train_profiles(chain, cpps, steps=args.steps, learning_rate=args.learning_rate,
+                           penalty_weight=args.penalty_weight, sharpness=args.sharpness, seed=args.seed,
+                           progress=args.progress)
+    save_policy(args.json.with_suffix(".r1.eqx"), study.profiles.r1_jacket.policy)
+    save_policy(args.json.with_suffix(".cooling.eqx"), study.profiles.cooling.policy)
+    return _finish(study, args.json)
 
 
 def run_design_space(args) -> int:
     from ._design_space import design_space
 
     chain, cpps = chain_from_args(args)
-    space = design_space(chain, cpps, x=args.x, y=args.y, points=args.points, samples=args.samples,
-                         sigma=args.sigma, seed=args.seed, confidence=args.confidence)
-    print(f"P(all specs) over {args.x} x {args.y}, {args.samples} draws of the rate constants "
-          f"(sigma ln k = {args.sigma:g}); largest |MC - linearised| = {space['max_abs_difference']:.3f}")
-    for name, interval in space["acceptable_ranges"].items():
-        print(f"  {name}: P >= {args.confidence:g} on {interval}")
-    _write_json(args.json, space)
-    return 0
+    return _finish(design_space(chain, cpps, x=args.x, y=args.y, points=args.points, samples=args.samples,
+                                sigma=args.sigma, seed=args.seed, confidence=args.confidence), args.json)
 
 
 def run_report(args) -> int:
@@ -99,7 +81,7 @@ def run_report(args) -> int:
 
     chain, cpps = chain_from_args(args)
     report = build_report(chain, cpps, points=args.points, samples=args.samples, repeats=args.repeats)
-    for path in write_report(args.out, report):
+    for path in write_report(args.out, report, args.json):
         print(f"written: {path}")
     return 0
 
@@ -113,11 +95,10 @@ def run_bench(args) -> int:
 def register_pharma(cli) -> None:
     """Add `snapo pharma sensitivities|train|design-space`, `snapo bench pharma` and
     `snapo report pharma`."""
-    pharma = cli.command("pharma", "the 4-unit API chain: ICH Q8 sensitivities of the CQAs to the CPPs "
-                         "and to every kinetic and physical parameter")
-    verbs = pharma.add_subparsers(dest="pharma_verb", metavar="VERB")
-    sens = verbs.add_parser("sensitivities", help="the 5x4 dCQA/dCPP matrix and every parameter sensitivity, "
-                            "checked against central differences and a tight-tolerance reference")
+    pharma = cli.group("pharma", "the 4-unit API chain: ICH Q8 sensitivities of the CQAs to the CPPs "
+                       "and to every kinetic and physical parameter")
+    sens = cli.command("sensitivities", "the 5x4 dCQA/dCPP matrix and every parameter sensitivity, checked "
+                       "against central differences and a tight-tolerance reference", group=pharma)
     add_chain_arguments(sens)
     sens.add_argument("--mode", default="auto", help="auto (the cheaper for the Jacobian's shape), reverse, forward")
     sens.add_argument("--repeats", type=int, default=10, help="timed runs after the compile")
@@ -125,41 +106,34 @@ def register_pharma(cli) -> None:
     sens.add_argument("--no-reference", action="store_true", help="skip the tight-tolerance reference")
     sens.add_argument("--reference-rtol", type=float, default=1e-12)
     sens.add_argument("--reference-atol", type=float, default=1e-14)
-    sens.add_argument("--json", type=pathlib.Path, help="output JSON path")
     sens.set_defaults(handler=run_sensitivities)
-    train = verbs.add_parser("train", help="train the R1 jacket and crystallizer cooling profiles for yield, "
-                             "specs as smooth penalties; evaluate with hard spec checks")
+    train = cli.command("train", "train the R1 jacket and crystallizer cooling profiles for yield, specs as "
+                        "smooth penalties; evaluate with hard spec checks (policies beside the JSON)", group=pharma)
     add_chain_arguments(train)
     train.add_argument("--steps", type=int, default=60)
     train.add_argument("--learning-rate", type=float, default=3e-2)
     train.add_argument("--penalty-weight", type=float, default=1.0)
     train.add_argument("--sharpness", type=float, default=50.0, help="of the softplus spec penalty")
-    train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--json", type=pathlib.Path, help="output JSON path (policies beside it)")
     train.set_defaults(handler=run_train)
-    space = verbs.add_parser("design-space", help="P(all specs) over a grid of two CPPs under kinetic "
-                             "uncertainty: Monte Carlo next to the linearised estimate")
+    space = cli.command("design-space", "P(all specs) over a grid of two CPPs under kinetic uncertainty: Monte "
+                        "Carlo next to the linearised estimate", group=pharma)
     add_chain_arguments(space)
     space.add_argument("--x", default="r1_temperature")
     space.add_argument("--y", default="dryer_temperature")
     space.add_argument("--points", type=int, default=7)
     space.add_argument("--samples", type=int, default=64)
     space.add_argument("--sigma", type=float, default=0.1, help="standard deviation of each ln k")
-    space.add_argument("--seed", type=int, default=0)
     space.add_argument("--confidence", type=float, default=0.95)
-    space.add_argument("--json", type=pathlib.Path)
     space.set_defaults(handler=run_design_space)
     report = cli.report("pharma", "the ICH Q8 sensitivity report: report.html (self-contained), report.pdf, "
                         "sensitivities.csv, report.json")
     add_chain_arguments(report)
-    report.add_argument("--out", type=pathlib.Path, default=DEFAULT_OUT / "pharma-report")
     report.add_argument("--points", type=int, default=5, help="design-space grid points per CPP")
     report.add_argument("--samples", type=int, default=32, help="design-space draws of the rate constants")
     report.add_argument("--repeats", type=int, default=5, help="timed runs of the sensitivities")
     report.set_defaults(handler=run_report)
     bench = cli.bench("pharma", "20 sensitivities from 5 reverse passes vs 4 forward tangents: median after "
                       "compile and accuracy against a tight-tolerance reference, per tolerance")
-    bench.add_argument("--out", type=pathlib.Path, default=DEFAULT_OUT)
     bench.add_argument("--rtols", default="1e-5,3e-6,1e-6,1e-7,1e-8",
                        help="comma-separated rtol values (atol = rtol / 100)")
     bench.add_argument("--repeats", type=int, default=25)

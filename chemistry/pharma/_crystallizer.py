@@ -1,6 +1,7 @@
 """The seeded cooling crystallizer: van't Hoff solubility, power-law secondary nucleation and
 size-independent growth, the method of moments (mu_0 .. mu_4), and impurity incorporation by a
-partition coefficient (an effect).
+partition coefficient (an effect); without the crystallization effect, isolation at the
+solubility equilibrium.
 
 Per m^3 of liquor (its volume taken constant). Scaled state: [c_P [kmol/m^3], m_0 .. m_4] with
 mu_j = N_REF L_REF^j m_j, then (with incorporation) the impurity and degradant taken up by the
@@ -11,12 +12,15 @@ from typing import NamedTuple
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
 
 from chemistry import GAS_CONSTANT
+from snapo_ode import SolverSettings
 
-from ._profiles import AbstractTemperatureProfile
-from ._solver import ChainSolver
+from .._types import Scalar, Vector
+from ._parameters import ChainInputs, arrhenius
+from ._profiles import AbstractTemperatureProfile, LinearRamp
+from ._unit import AbstractUnit, Liquid
+
 
 N_REF = 1e10  # [1/m^3]
 L_REF = 1e-4  # [m]
@@ -38,11 +42,11 @@ class CrystallizerOutlet(NamedTuple):
     """`api` [kmol/m^3] dissolved at the end; `moments` mu_0 .. mu_4 [m^j/m^3], shape (5,);
     `impurity_solid`, `degradant_solid` [kmol/m^3] incorporated in the crystals; `temperature` [K]."""
 
-    api: Float[Array, ""]
-    moments: Float[Array, " 5"]
-    impurity_solid: Float[Array, ""]
-    degradant_solid: Float[Array, ""]
-    temperature: Float[Array, ""]
+    api: Scalar
+    moments: Vector
+    impurity_solid: Scalar
+    degradant_solid: Scalar
+    temperature: Scalar
 
     def crystal_mass(self, physical):
         """[kg/m^3] of liquor."""
@@ -53,9 +57,27 @@ class CrystallizerOutlet(NamedTuple):
         return self.moments[4] / self.moments[3]
 
 
+class Slurry(NamedTuple):
+    """The crystallizer's outlet: the `liquor` it was fed (molar concentrations [kmol/m^3], shape
+    (n_species,)) and the `crystals` grown from it."""
+
+    liquor: Vector
+    crystals: CrystallizerOutlet
+
+
+class SpeciesRoles(NamedTuple):
+    """Where the API `api`, the impurity `impurity`, the degradant `degradant` and the `solvent`
+    sit in the mechanism's species."""
+
+    api: int
+    impurity: int
+    degradant: int
+    solvent: int
+
+
 class Crystallizer(eqx.Module):
-    """The cooling crystallizer; `impurity_incorporation`: whether impurity and degradant enter
-    the crystals (partition coefficients), else the crystals are pure API."""
+    """The cooling crystallizer's physics; `impurity_incorporation`: whether impurity and
+    degradant enter the crystals (partition coefficients), else the crystals are pure API."""
 
     api_molar_mass: float = eqx.field(static=True)
     impurity_incorporation: bool = eqx.field(static=True)
@@ -65,9 +87,9 @@ class Crystallizer(eqx.Module):
         temperature = profile(s)
         api, scaled = state[0], state[1:6]
         supersaturation = api / solubility(temperature, physical) - 1
-        arrhenius = jnp.exp(-physical.growth_activation / GAS_CONSTANT
-                            * (1 / temperature - 1 / physical.solubility_ref_temperature))
-        growth = physical.growth_rate * arrhenius * _power_of_positive(supersaturation, physical.growth_order)
+        growth = (arrhenius(physical.growth_rate, physical.growth_activation, temperature,
+                            physical.solubility_ref_temperature)
+                  * _power_of_positive(supersaturation, physical.growth_order))
         crystal_volume = physical.shape_factor * N_REF * L_REF**3 * scaled[3]  # [m^3/m^3]
         nucleation = physical.nucleation_rate * _power_of_positive(supersaturation, physical.nucleation_order) * crystal_volume
         d_moments = jnp.concatenate([
@@ -86,7 +108,7 @@ class Crystallizer(eqx.Module):
         return duration * jnp.concatenate(rates)
 
     def __call__(self, api, impurity, degradant, profile: AbstractTemperatureProfile, duration, physical,
-                 solver: ChainSolver) -> CrystallizerOutlet:
+                 solver: SolverSettings) -> CrystallizerOutlet:
         """Crystallize from liquor with `api`, `impurity`, `degradant` [kmol/m^3] over `duration`
         [s] along the temperature `profile`, seeded with `physical.seed_loading` [kg/m^3] of
         crystals of `physical.seed_size` [m]."""
@@ -96,7 +118,49 @@ class Crystallizer(eqx.Module):
         state = jnp.concatenate([jnp.reshape(api, (1,)), seed_moments])
         if self.impurity_incorporation:
             state = jnp.concatenate([state, jnp.zeros(2)])
-        end = solver.solve(self.rhs, state, (profile, duration, physical, impurity, degradant), stiff=False)
+        end = solver.solve(self.rhs, 0.0, 1.0, state, (profile, duration, physical, impurity, degradant),
+                           stiff=False).ys[-1]
         moments = end[1:6] * N_REF * L_REF ** jnp.arange(5)
         solid = end[6:8] if self.impurity_incorporation else jnp.zeros(2)
         return CrystallizerOutlet(end[0], moments, solid[0], solid[1], profile(1.0))
+
+
+class CoolingCrystallizer(AbstractUnit):
+    """The crystallizer as a unit: the liquor of `inlet` cooled from `hold_temperature` to
+    `final_temperature` [K] at `cooling_rate` [K/min] (linearly, or along a learned `cooling`
+    profile between the same end points)."""
+
+    physics: Crystallizer
+    molar_volumes: Vector
+    roles: SpeciesRoles = eqx.field(static=True)
+    cooling: AbstractTemperatureProfile | None = None
+
+    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings) -> Slurry:
+        physical, roles = inputs.physical, self.roles
+        liquor = inlet.concentrations(self.molar_volumes)
+        profile = (LinearRamp(physical.hold_temperature, physical.final_temperature) if self.cooling is None
+                   else self.cooling)
+        duration = 60.0 * (physical.hold_temperature - physical.final_temperature) / inputs.cpps.cooling_rate
+        crystals = self.physics(liquor[roles.api], liquor[roles.impurity], liquor[roles.degradant], profile,
+                                duration, physical, solver)
+        return Slurry(liquor, crystals)
+
+
+class EquilibriumIsolation(AbstractUnit):
+    """Without the crystallization effect: the API above its solubility at the final temperature
+    comes out as solid of the seed size (no kinetics, no incorporation)."""
+
+    api_molar_mass: float = eqx.field(static=True)
+    molar_volumes: Vector
+    roles: SpeciesRoles = eqx.field(static=True)
+
+    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings) -> Slurry:
+        physical = inputs.physical
+        liquor = inlet.concentrations(self.molar_volumes)
+        api = liquor[self.roles.api]
+        solid = jnp.maximum(api - solubility(physical.final_temperature, physical), 0.0)
+        volume = solid * self.api_molar_mass / physical.crystal_density  # [m^3/m^3]
+        count = volume / (physical.shape_factor * physical.seed_size**3)
+        moments = count * physical.seed_size ** jnp.arange(5)
+        zero = jnp.zeros_like(api)
+        return Slurry(liquor, CrystallizerOutlet(api - solid, moments, zero, zero, physical.final_temperature))

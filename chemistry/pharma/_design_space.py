@@ -3,29 +3,59 @@ at nominal) under uncertainty of the kinetic parameters, by Monte Carlo (all gri
 in one vmapped call) next to the linearised estimate (the same draws pushed through the
 sensitivities), and the proven acceptable ranges that follow."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import check_choice, check_range, flatten_inputs
+from snapo_ode import Result, check_choice, check_range
 
 from ._chain import PharmaChain
 from ._cqa import meets_specs
-from ._parameters import CPP_NAMES, CPP_RANGES, CPPs
-from ._sensitivities import bumped_cqas, chain_inputs, jacobian_function
+from ._parameters import CPPs
+from ._ranges import CPP_NAMES, CPP_RANGES
+from ._sensitivities import input_names, jacobian_function, named_jacobian, rate_names, shifted_cqas
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class DesignSpace(Result):
+    """P(all CQAs within spec) over a grid of CPPs `x` and `y` (values `x_values`, `y_values`),
+    by Monte Carlo (`probability_mc`) and linearised (`probability_linear`), shape
+    (points, points), index [i_x, i_y]; their `max_abs_difference`; the `nominal_cqas` at each
+    point; and `acceptable_ranges`: for each of x and y (the other at nominal), [low, high] of
+    the grid values where the Monte Carlo probability is >= `confidence` (None when none is)."""
+
+    x: str
+    y: str
+    x_values: list
+    y_values: list
+    samples: int
+    sigma_log_rate: float
+    seed: int
+    confidence: float
+    probability_mc: list
+    probability_linear: list
+    max_abs_difference: float
+    nominal_cqas: list
+    acceptable_ranges: dict
+
+    def summary(self) -> str:
+        lines = [f"P(all specs) over {self.x} x {self.y}, {self.samples} draws of the rate constants (sigma ln k = "
+                 f"{self.sigma_log_rate:g}); largest |MC - linearised| = {self.max_abs_difference:.3f}"]
+        lines += [f"  {name}: P >= {self.confidence:g} on {interval}" for name, interval in
+                  self.acceptable_ranges.items()]
+        return "\n".join(lines)
 
 
 def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y: str = "dryer_temperature",
                  points: int = 7, samples: int = 64, sigma: float = 0.1, seed: int = 0,
-                 confidence: float = 0.95) -> dict:
+                 confidence: float = 0.95) -> DesignSpace:
     """P(all CQAs within spec) on a `points` x `points` grid spanning the proven acceptable ranges
     of CPPs `x` and `y`, with each reaction's rate constant uncertain: ln k_j ~ N(ln k_j, `sigma`^2),
     independent (`samples` draws, the same at every grid point).
 
-    **Returns:** a dict with the grid values, `probability_mc` and `probability_linear` (shape
-    (points, points), index [i_x, i_y]), their largest difference, and `acceptable_ranges`: for
-    each of x and y (the other at nominal), the grid values where the Monte Carlo probability is
-    >= `confidence`.
+    **Returns:** a `DesignSpace`.
 
     **Raises:** `InputError` for an unknown CPP, equal x and y, or a bad size.
     """
@@ -38,21 +68,19 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     ranges = {r.name: r for r in CPP_RANGES}
     xs = np.linspace(*ranges[x].par, points)
     ys = np.linspace(*ranges[y].par, points)
-    inputs = chain_inputs(chain, cpps)
-    flat, _ = flatten_inputs(inputs)
-    n_reactions = chain.mechanism.n_reactions
-    ix, iy = CPP_NAMES.index(x), CPP_NAMES.index(y)
-    first_rate = len(CPP_NAMES)  # log-multipliers follow the CPPs in the flattened inputs
-    draws = sigma * np.asarray(jax.random.normal(jax.random.key(seed), (samples, n_reactions)))
+    inputs = chain.inputs(cpps)
+    column = {name: i for i, name in enumerate(input_names(chain))}
+    rates = rate_names(chain)
+    draws = sigma * np.asarray(jax.random.normal(jax.random.key(seed), (samples, len(rates))))
     shifts = []
     for vx in xs:
         for vy in ys:
-            base = np.zeros(flat.shape[0])
-            base[ix], base[iy] = vx - float(flat[ix]), vy - float(flat[iy])
+            base = np.zeros(len(column))
+            base[column[x]], base[column[y]] = vx - float(getattr(cpps, x)), vy - float(getattr(cpps, y))
             block = np.tile(base, (samples, 1))
-            block[:, first_rate:first_rate + n_reactions] += draws
+            block[:, [column[name] for name in rates]] += draws
             shifts.append(block)
-    cqas = bumped_cqas(chain, inputs, np.concatenate(shifts))
+    cqas = shifted_cqas(chain, inputs, np.concatenate(shifts))
     cqas = cqas.reshape(points, points, samples, -1)
     probability_mc = np.asarray(meets_specs(cqas)).mean(axis=-1)
 
@@ -61,26 +89,22 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     nominal_cqas = np.zeros((points, points, cqas.shape[-1]))
     for i, vx in enumerate(xs):
         for j, vy in enumerate(ys):
-            point = chain_inputs(chain, CPPs(**{**{n: getattr(cpps, n) for n in CPP_NAMES},
-                                                x: jnp.asarray(vx), y: jnp.asarray(vy)}))
+            point = chain.inputs(CPPs(**{**{n: getattr(cpps, n) for n in CPP_NAMES}, x: jnp.asarray(vx),
+                                         y: jnp.asarray(vy)}))
             values, matrix = evaluate(point)
-            sensitivity = np.asarray(matrix)[:, first_rate:first_rate + n_reactions]
+            sensitivity = np.asarray(named_jacobian(chain, point, values, matrix, "reverse").columns(rates))
             linear = np.asarray(values)[None, :] + draws @ sensitivity.T
             probability_linear[i, j] = float(np.mean(np.asarray(meets_specs(linear))))
             nominal_cqas[i, j] = np.asarray(values)
     nominal_x = int(np.argmin(np.abs(xs - float(getattr(cpps, x)))))
     nominal_y = int(np.argmin(np.abs(ys - float(getattr(cpps, y)))))
-    return {
-        "x": x, "y": y, "x_values": xs.tolist(), "y_values": ys.tolist(),
-        "samples": samples, "sigma_log_rate": sigma, "seed": seed, "confidence": confidence,
-        "probability_mc": probability_mc.tolist(), "probability_linear": probability_linear.tolist(),
-        "max_abs_difference": float(np.max(np.abs(probability_mc - probability_linear))),
-        "nominal_cqas": nominal_cqas.tolist(),
-        "acceptable_ranges": {
-            x: _acceptable(xs, probability_mc[:, nominal_y] >= confidence),
-            y: _acceptable(ys, probability_mc[nominal_x, :] >= confidence),
-        },
-    }
+    return DesignSpace(
+        x=x, y=y, x_values=xs.tolist(), y_values=ys.tolist(), samples=samples, sigma_log_rate=sigma, seed=seed,
+        confidence=confidence, probability_mc=probability_mc.tolist(), probability_linear=probability_linear.tolist(),
+        max_abs_difference=float(np.max(np.abs(probability_mc - probability_linear))),
+        nominal_cqas=nominal_cqas.tolist(),
+        acceptable_ranges={x: _acceptable(xs, probability_mc[:, nominal_y] >= confidence),
+                           y: _acceptable(ys, probability_mc[nominal_x, :] >= confidence)})
 
 
 def _acceptable(values, ok) -> list[float] | None:

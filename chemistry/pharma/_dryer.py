@@ -10,28 +10,25 @@ from typing import NamedTuple
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
 
-from chemistry import GAS_CONSTANT
+from snapo_ode import SolverSettings
 
-from ._solver import ChainSolver
-
-
-def arrhenius(rate, activation, temperature, reference_temperature):
-    """rate exp(-E/R (1/T - 1/T_ref)) [units of rate]; `activation` E [J/kmol]."""
-    return rate * jnp.exp(-activation / GAS_CONSTANT * (1 / temperature - 1 / reference_temperature))
+from .._types import Scalar
+from ._parameters import ChainInputs, arrhenius
+from ._unit import AbstractUnit, Solids
 
 
 class DryerOutlet(NamedTuple):
     """`solvent`, `api` and `degradant_formed` [kg per kg of solids at the start]."""
 
-    solvent: Float[Array, ""]
-    api: Float[Array, ""]
-    degradant_formed: Float[Array, ""]
+    solvent: Scalar
+    api: Scalar
+    degradant_formed: Scalar
 
 
-class Dryer(eqx.Module):
-    """The drying stage; `degradation`: whether the API degrades in the solid."""
+class Dryer(AbstractUnit):
+    """The drying stage at `dryer_temperature` [K] for `drying_time` [s]; `degradation`: whether
+    the API degrades in the solid."""
 
     degradation: bool = eqx.field(static=True)
 
@@ -46,12 +43,18 @@ class Dryer(eqx.Module):
             rates.append(degrading * (api - state[1:2]))
         return physical.drying_time * jnp.concatenate(rates)
 
-    def __call__(self, solvent, api, temperature, physical, solver: ChainSolver) -> DryerOutlet:
+    def dry(self, solvent, api, temperature, physical, solver: SolverSettings) -> DryerOutlet:
         """Dry a cake with `solvent` and `api` [kg/kg solids] at `temperature` [K] for
         `physical.drying_time` [s]."""
+        start = jnp.stack([solvent, jnp.zeros_like(api)]) if self.degradation else jnp.reshape(solvent, (1,))
+        end = solver.solve(self.rhs, 0.0, 1.0, start, (temperature, api, physical), stiff=False).ys[-1]
         if self.degradation:
-            end = solver.solve(self.rhs, jnp.stack([solvent, jnp.zeros_like(api)]), (temperature, api, physical),
-                               stiff=False)
             return DryerOutlet(end[0], api - end[1], end[1])
-        end = solver.solve(self.rhs, jnp.reshape(solvent, (1,)), (temperature, api, physical), stiff=False)
         return DryerOutlet(end[0], api, jnp.zeros_like(api))
+
+    def __call__(self, inlet: Solids, inputs: ChainInputs, solver: SolverSettings) -> Solids:
+        solids = inlet.solids
+        dried = self.dry(inlet.solvent / solids, inlet.api / solids, inputs.cpps.dryer_temperature, inputs.physical,
+                         solver)
+        return inlet._replace(api=solids * dried.api, degradant=inlet.degradant + solids * dried.degradant_formed,
+                              solvent=solids * dried.solvent)

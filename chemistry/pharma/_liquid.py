@@ -3,39 +3,29 @@
 In the frame moving with the fluid, a plug-flow reactor is a batch whose duration is the
 residence time. The state is y_k = n_k / V0 [kmol per m^3 of initial volume] (and T / 300 K with
 the energy balance); the volume follows the ideal-condensed mixing rule V / V0 = sum_k y_k v_k,
-exactly as Cantera's `ConstPressureReactor` treats an `ideal-condensed` phase.
+exactly as Cantera's `ConstPressureReactor` treats an `ideal-condensed` phase. Each solve runs
+over a normalised time s in [0, 1] with the duration a factor of the right-hand side, so a CPP
+that sets a duration is an ordinary differentiable input.
 """
 
-from typing import NamedTuple
-
+import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
 
 from chemistry import GAS_CONSTANT, Mechanism, RateParameters
+from snapo_ode import SolverSettings
 
-from ._profiles import AbstractTemperatureProfile
-from ._solver import ChainSolver
+from ._parameters import ChainInputs
+from ._profiles import AbstractTemperatureProfile, ConstantTemperature
+from ._unit import AbstractUnit, Liquid
 
 TEMPERATURE_SCALE = 300.0  # [K]: the energy balance integrates T / 300 K
 
 
-class LiquidOutlet(NamedTuple):
-    """`amounts`: y_k [kmol per m^3 of the unit's initial volume], shape (n_species,);
-    `temperature` [K] at the outlet."""
-
-    amounts: Float[Array, " s"]
-    temperature: Float[Array, ""]
-
-    def concentrations(self, molar_volumes):
-        """Molar concentrations [kmol/m^3]."""
-        return self.amounts / (self.amounts @ molar_volumes)
-
-
 class LiquidBatch(eqx.Module):
-    """A liquid batch integrated over `duration` [s].
+    """The physics of a liquid batch (shared by R1 and R2).
 
-    - `mechanism`: the `Mechanism` (possibly reduced to the active reactions).
+    - `mechanism`: the `Mechanism` (reduced to the active reactions).
     - `energy_balance`: integrate T with the jacket (U a (T_jacket - T), per initial volume);
       otherwise the batch is isothermal at the jacket temperature.
     """
@@ -49,6 +39,7 @@ class LiquidBatch(eqx.Module):
         return volume_ratio * self.mechanism.net_production_rates(temperature, amounts / volume_ratio, rates)
 
     def rhs(self, s, state, args):
+        """d state / d s over the normalised time s in [0, 1]."""
         rates, jacket, duration, jacket_ua = args
         if not self.energy_balance:
             return duration * self.production(jacket(s), state, rates)
@@ -60,16 +51,48 @@ class LiquidBatch(eqx.Module):
         heating = jacket_ua * (jacket(s) - temperature) - dy @ enthalpy  # [W per m^3 of V0]
         return duration * jnp.append(dy, heating / heat_capacity / TEMPERATURE_SCALE)
 
-    def __call__(self, amounts, temperature, jacket: AbstractTemperatureProfile, duration, rates: RateParameters,
-                 jacket_ua, solver: ChainSolver, *, steps: bool = False) -> LiquidOutlet:
-        """Integrate from `amounts` [kmol/m^3] at `temperature` [K] for `duration` [s] with the
-        jacket at `jacket(s)` [K]; `jacket_ua` [W/m^3/K]. With `steps`: the `diffrax.Solution`
-        at every step instead (state as in `rhs`)."""
-        args = (rates, jacket, duration, jacket_ua)
-        if steps:
-            start = jnp.append(amounts, temperature / TEMPERATURE_SCALE) if self.energy_balance else amounts
-            return solver.solve(self.rhs, start, args, steps=True)
+    def start(self, inlet: Liquid):
+        """The scaled state of `inlet`."""
         if self.energy_balance:
-            end = solver.solve(self.rhs, jnp.append(amounts, temperature / TEMPERATURE_SCALE), args)
-            return LiquidOutlet(end[:-1], TEMPERATURE_SCALE * end[-1])
-        return LiquidOutlet(solver.solve(self.rhs, amounts, args), jacket(1.0))
+            return jnp.append(inlet.amounts, inlet.temperature / TEMPERATURE_SCALE)
+        return inlet.amounts
+
+    def run(self, inlet: Liquid, jacket: AbstractTemperatureProfile, duration, rates: RateParameters, jacket_ua,
+            solver: SolverSettings, *, saveat: diffrax.SaveAt | None = None):
+        """Integrate from `inlet` for `duration` [s] with the jacket at `jacket(s)` [K]; `jacket_ua`
+        [W/m^3/K]. Returns the outlet `Liquid`, or with `saveat` the `diffrax.Solution` (state as
+        in `rhs`)."""
+        solution = solver.solve(self.rhs, 0.0, 1.0, self.start(inlet), (rates, jacket, duration, jacket_ua),
+                                saveat=saveat)
+        if saveat is not None:
+            return solution
+        end = solution.ys[-1]
+        if self.energy_balance:
+            return Liquid(end[:-1], TEMPERATURE_SCALE * end[-1])
+        return Liquid(end, jacket(1.0))
+
+
+class SynthesisReactor(AbstractUnit):
+    """R1: the jacketed plug-flow synthesis reactor, residence time `r1_residence_time` [min]
+    with the jacket at `r1_temperature` [K] (or along a learned `jacket` profile)."""
+
+    batch: LiquidBatch
+    jacket: AbstractTemperatureProfile | None = None
+
+    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings, *,
+                 saveat: diffrax.SaveAt | None = None) -> Liquid:
+        cpps = inputs.cpps
+        jacket = ConstantTemperature(cpps.r1_temperature) if self.jacket is None else self.jacket
+        return self.batch.run(inlet, jacket, 60.0 * cpps.r1_residence_time, inputs.rates,
+                              inputs.physical.jacket_ua, solver, saveat=saveat)
+
+
+class HoldReactor(AbstractUnit):
+    """R2: an isothermal hold at `hold_temperature` [K] for `hold_time` [s]."""
+
+    batch: LiquidBatch
+
+    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings) -> Liquid:
+        physical = inputs.physical
+        return self.batch.run(inlet, ConstantTemperature(physical.hold_temperature), physical.hold_time,
+                              inputs.rates, physical.jacket_ua, solver)

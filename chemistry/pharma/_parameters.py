@@ -1,8 +1,8 @@
-"""Every number of the pharma chain in one place: the CPPs with their ranges, the CQAs with their
-specifications, and the physical parameters of the four units, with units and sources.
+"""The pharma chain's differentiable inputs: the CPPs (their ranges and the CQA specifications
+are in `_ranges`) and the physical parameters of the units, with units and sources.
 
 Kinetics live in `chemistry/mechanisms/pharma.yaml` (read by `chemistry.Mechanism`); everything
-else is here. The values are illustrative but literature-plausible: the synthesis rate constant,
+else is here or in `_ranges`. The values are illustrative but literature-plausible: the synthesis rate constant,
 the crystal density, molar masses and the 4-hour cooling scale follow PharmaPy's example
 flowsheet; the solvent is ethanol (molar volume 0.0584 m^3/kmol, freezing point 159 K, normal
 boiling point 351.4 K, ICH Q3C class 3 limit 5000 ppm).
@@ -13,72 +13,12 @@ from typing import NamedTuple
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
 
+from chemistry import GAS_CONSTANT, RateParameters
 from snapo_ode import InputError, check_range
 
-SOLVENT_FREEZING_POINT = 159.0  # ethanol [K]
-SOLVENT_BOILING_POINT = 351.4  # ethanol at 1 atm [K]
-# The liquid-phase species the chain needs, by role (names in the mechanism).
-SPECIES = {"reactant": "A", "co_reactant": "B", "api": "P", "impurity": "I", "side_product": "X",
-           "degradant": "D", "solvent": "S"}
-# The reactions the chain needs, by role (equations as written in the mechanism), and the effect
-# that switches each on ("" = always on).
-REACTIONS = {"A + B => P": "", "P => I": "side_reactions", "A => X": "side_reactions",
-             "X => A": "side_reactions", "P => D": "degradation"}
-
-
-class ParameterRange(NamedTuple):
-    """A CPP: `nominal`, normal operating range `nor`, proven acceptable range `par`, and the
-    physical limits `physical` (open interval) outside which the model does not apply."""
-
-    name: str
-    unit: str
-    nominal: float
-    nor: tuple[float, float]
-    par: tuple[float, float]
-    physical: tuple[float, float]
-    description: str
-
-
-class Specification(NamedTuple):
-    """A CQA and its specification: `low <= value <= high` (either may be infinite)."""
-
-    name: str
-    unit: str
-    low: float
-    high: float
-    description: str
-
-    def text(self) -> str:
-        if np.isinf(self.low):
-            return f"<= {self.high:g} {self.unit}"
-        if np.isinf(self.high):
-            return f">= {self.low:g} {self.unit}"
-        return f"{self.low:g} - {self.high:g} {self.unit}"
-
-
-CPP_RANGES = (
-    ParameterRange("r1_temperature", "K", 313.15, (308.15, 318.15), (303.15, 323.15),
-                   (SOLVENT_FREEZING_POINT, SOLVENT_BOILING_POINT),
-                   "R1 jacket temperature (the feed enters at it)"),
-    ParameterRange("r1_residence_time", "min", 30.0, (25.0, 35.0), (20.0, 40.0), (0.0, np.inf),
-                   "R1 residence time (plug flow: the batch time of a fluid element)"),
-    ParameterRange("cooling_rate", "K/min", 0.5, (0.4, 0.6), (0.25, 1.0), (0.0, np.inf),
-                   "linear cooling rate of the crystallizer"),
-    ParameterRange("dryer_temperature", "K", 318.15, (313.15, 323.15), (308.15, 328.15),
-                   (SOLVENT_FREEZING_POINT, 423.15), "filter-dryer jacket temperature"),
-)
-CPP_NAMES = tuple(r.name for r in CPP_RANGES)
-
-CQA_SPECS = (
-    Specification("assay", "% w/w", 98.0, np.inf, "API in the dried product"),
-    Specification("impurity", "% w/w", -np.inf, 0.15, "over-reaction impurity I in the dried product"),
-    Specification("degradant", "% w/w", -np.inf, 0.15, "degradant D in the dried product"),
-    Specification("mean_crystal_size", "um", 150.0, 300.0, "volume-weighted mean size D[4,3]"),
-    Specification("residual_solvent", "ppm", -np.inf, 5000.0, "ethanol left in the product (ICH Q3C)"),
-)
-CQA_NAMES = tuple(s.name for s in CQA_SPECS)
+from .._types import Scalar
+from ._ranges import CPP_NAMES, CPP_RANGES
 
 
 class CPPs(eqx.Module):
@@ -88,10 +28,10 @@ class CPPs(eqx.Module):
       `dryer_temperature` [K].
     """
 
-    r1_temperature: Float[Array, ""]
-    r1_residence_time: Float[Array, ""]
-    cooling_rate: Float[Array, ""]
-    dryer_temperature: Float[Array, ""]
+    r1_temperature: Scalar
+    r1_residence_time: Scalar
+    cooling_rate: Scalar
+    dryer_temperature: Scalar
 
     def as_dict(self) -> dict[str, float]:
         return {name: float(getattr(self, name)) for name in CPP_NAMES}
@@ -127,14 +67,6 @@ def outside_par(cpps: CPPs) -> list[str]:
     return warnings
 
 
-def check_cqa_names(names) -> tuple[str, ...]:
-    """Raise `InputError` for a name that is not a CQA."""
-    for name in names:
-        if name not in CQA_NAMES:
-            raise InputError(f"unknown CQA {name!r}; CQAs: {', '.join(CQA_NAMES)}.")
-    return tuple(names)
-
-
 class PhysicalParameters(eqx.Module):
     """The non-kinetic parameters of the chain, each a float scalar (differentiable).
 
@@ -165,34 +97,34 @@ class PhysicalParameters(eqx.Module):
       `solid_degradation_activation` [J/kmol]: P -> D in the solid.
     """
 
-    feed_a: Float[Array, ""]
-    feed_b: Float[Array, ""]
-    jacket_ua: Float[Array, ""]
-    hold_temperature: Float[Array, ""]
-    hold_time: Float[Array, ""]
-    final_temperature: Float[Array, ""]
-    solubility_ref: Float[Array, ""]
-    solubility_ref_temperature: Float[Array, ""]
-    solubility_enthalpy: Float[Array, ""]
-    growth_rate: Float[Array, ""]
-    growth_order: Float[Array, ""]
-    growth_activation: Float[Array, ""]
-    nucleation_rate: Float[Array, ""]
-    nucleation_order: Float[Array, ""]
-    seed_loading: Float[Array, ""]
-    seed_size: Float[Array, ""]
-    crystal_density: Float[Array, ""]
-    shape_factor: Float[Array, ""]
-    partition_impurity: Float[Array, ""]
-    partition_degradant: Float[Array, ""]
-    cake_liquor: Float[Array, ""]
-    wash_residue: Float[Array, ""]
-    drying_time: Float[Array, ""]
-    drying_rate: Float[Array, ""]
-    dryer_ref_temperature: Float[Array, ""]
-    drying_activation: Float[Array, ""]
-    solid_degradation_rate: Float[Array, ""]
-    solid_degradation_activation: Float[Array, ""]
+    feed_a: Scalar
+    feed_b: Scalar
+    jacket_ua: Scalar
+    hold_temperature: Scalar
+    hold_time: Scalar
+    final_temperature: Scalar
+    solubility_ref: Scalar
+    solubility_ref_temperature: Scalar
+    solubility_enthalpy: Scalar
+    growth_rate: Scalar
+    growth_order: Scalar
+    growth_activation: Scalar
+    nucleation_rate: Scalar
+    nucleation_order: Scalar
+    seed_loading: Scalar
+    seed_size: Scalar
+    crystal_density: Scalar
+    shape_factor: Scalar
+    partition_impurity: Scalar
+    partition_degradant: Scalar
+    cake_liquor: Scalar
+    wash_residue: Scalar
+    drying_time: Scalar
+    drying_rate: Scalar
+    dryer_ref_temperature: Scalar
+    drying_activation: Scalar
+    solid_degradation_rate: Scalar
+    solid_degradation_activation: Scalar
 
 
 _PHYSICAL_DEFAULTS = dict(
@@ -228,3 +160,21 @@ def default_physical_parameters(**overrides: float) -> PhysicalParameters:
 
 
 PHYSICAL_NAMES = tuple(_PHYSICAL_DEFAULTS)
+
+
+def arrhenius(rate, activation, temperature, reference_temperature):
+    """`rate` at `temperature` [K], given at `reference_temperature` [K] with activation energy
+    `activation` [J/kmol]: rate exp(-E/R (1/T - 1/T_ref)), in the units of `rate`. The form of
+    every temperature-dependent physical rate of the chain (growth, drying, solid degradation)."""
+    return rate * jnp.exp(-activation / GAS_CONSTANT * (1 / temperature - 1 / reference_temperature))
+
+
+class ChainInputs(NamedTuple):
+    """Everything the chain's outputs depend on, one differentiable pytree: `cpps`, the `rates`
+    (per-reaction log-multipliers, temperature exponents and activation temperatures [K]) and the
+    `physical` parameters. Its flat order (CPPs, then rates, then physical parameters) is the
+    column order of every sensitivity matrix."""
+
+    cpps: CPPs
+    rates: RateParameters
+    physical: PhysicalParameters

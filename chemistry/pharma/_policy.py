@@ -2,16 +2,19 @@
 cooling ramp of the crystallizer, trained to maximise the API yield with the CQA specs as smooth
 penalties, then evaluated with hard spec checks."""
 
+import dataclasses
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from snapo_ode import MLPPolicy, call_checked, train
+from snapo_ode import MLPPolicy, Result, call_checked, field, train
 
 from ._chain import PharmaChain
 from ._cqa import cqa_dict, cqa_vector, meets_specs, spec_margins, spec_penalty
-from ._parameters import CPP_RANGES, CPPs, PhysicalParameters, default_physical_parameters
+from ._parameters import CPPs, PhysicalParameters, default_physical_parameters
 from ._profiles import AbstractTemperatureProfile, NeuralTemperature
+from ._ranges import CPP_RANGES
 
 
 class NeuralCooling(AbstractTemperatureProfile):
@@ -54,7 +57,8 @@ def profile_objective(chain: PharmaChain, cpps: CPPs, physical: PhysicalParamete
     """profiles -> (loss, metrics): loss = -yield / 100 + penalty_weight * smooth spec penalty."""
 
     def loss(profiles: Profiles):
-        result = chain.simulate(cpps, None, physical, r1_jacket=profiles.r1_jacket, cooling=profiles.cooling)
+        result = chain.simulate(chain.inputs(cpps, physical=physical), r1_jacket=profiles.r1_jacket,
+                                cooling=profiles.cooling)
         cqas = cqa_vector(result)
         penalty = spec_penalty(cqas, sharpness)
         return -result.api_yield / 100 + penalty_weight * penalty, {"value": result.api_yield, "penalty": penalty}
@@ -77,7 +81,8 @@ def constant_profiles(profiles: Profiles) -> Profiles:
 
 @eqx.filter_jit
 def _simulate_with(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, profiles: Profiles):
-    result = chain.simulate(cpps, None, physical, r1_jacket=profiles.r1_jacket, cooling=profiles.cooling)
+    result = chain.simulate(chain.inputs(cpps, physical=physical), r1_jacket=profiles.r1_jacket,
+                            cooling=profiles.cooling)
     return result.api_yield, cqa_vector(result)
 
 
@@ -94,12 +99,38 @@ def evaluate_hard(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, 
             "smooth_objective": smooth, "gap": float(api_yield) - smooth}
 
 
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ProfileStudy(Result):
+    """Trained temperature profiles against the baseline (the R1 jacket constant at the middle of
+    its PAR and the linear cooling ramp), both evaluated with hard spec checks (`evaluate_hard`);
+    the profiles sampled at `profile_times`; the training's steps, seconds and loss history; and
+    the trained `profiles` (not in the JSON)."""
+
+    baseline: dict
+    trained: dict
+    r1_jacket_profile: list
+    cooling_profile: list
+    profile_times: list
+    train_steps: int
+    train_seconds: float
+    compile_seconds: float
+    loss_history: list
+    penalty_weight: float
+    sharpness: float
+    profiles: Profiles = field(json=False)
+
+    def summary(self) -> str:
+        return "\n".join(
+            f"{name:<9} yield {row['api_yield']:.2f}%  all specs met (hard): {row['meets_all_specs']}  "
+            f"smooth objective {row['smooth_objective']:.2f}  gap {row['gap']:.3f}"
+            for name, row in (("baseline", self.baseline), ("trained", self.trained)))
+
+
 def train_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters | None = None, *, steps: int = 60,
                    learning_rate: float = 3e-2, penalty_weight: float = 1.0, sharpness: float = 50.0, seed: int = 0,
-                   progress: bool = True) -> tuple[dict, Profiles]:
-    """Train both profiles; returns the study (baseline = the R1 jacket constant at the middle of
-    its PAR and the linear cooling ramp; and the trained profiles; both evaluated hard) and the
-    profiles."""
+                   progress: bool = True) -> ProfileStudy:
+    """Train both profiles for yield with the specs as smooth penalties; evaluate the baseline and
+    the trained profiles hard."""
     physical = default_physical_parameters() if physical is None else physical
     profiles = make_profiles(physical, key=jax.random.key(seed))
     loss = profile_objective(chain, cpps, physical, penalty_weight=penalty_weight, sharpness=sharpness)
@@ -107,14 +138,11 @@ def train_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters 
                     description="pharma profiles")
     settings = dict(penalty_weight=penalty_weight, sharpness=sharpness)
     samples = jnp.linspace(0.0, 1.0, 11)
-    study = {
-        "baseline": evaluate_hard(chain, cpps, physical, constant_profiles(profiles), **settings),
-        "trained": evaluate_hard(chain, cpps, physical, trained.params, **settings),
-        "r1_jacket_profile": [float(trained.params.r1_jacket(s)) for s in samples],
-        "cooling_profile": [float(trained.params.cooling(s)) for s in samples],
-        "profile_times": [float(s) for s in samples],
-        "train_steps": trained.steps_run, "train_seconds": trained.seconds,
-        "compile_seconds": trained.compile_seconds, "loss_history": trained.history.get("loss", []),
-        **settings,
-    }
-    return study, trained.params
+    return ProfileStudy(
+        baseline=evaluate_hard(chain, cpps, physical, constant_profiles(profiles), **settings),
+        trained=evaluate_hard(chain, cpps, physical, trained.params, **settings),
+        r1_jacket_profile=[float(trained.params.r1_jacket(s)) for s in samples],
+        cooling_profile=[float(trained.params.cooling(s)) for s in samples],
+        profile_times=[float(s) for s in samples], train_steps=trained.steps_run, train_seconds=trained.seconds,
+        compile_seconds=trained.compile_seconds, loss_history=trained.history.get("loss", []),
+        profiles=trained.params, **settings)

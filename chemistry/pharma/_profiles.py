@@ -3,22 +3,23 @@ neural profile (an MLP of s bounded to a range)."""
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
 
 from snapo_ode import MLPPolicy
+
+from .._types import Scalar
 
 
 class AbstractTemperatureProfile(eqx.Module):
     """T(s) [K] at normalised time `s` in [0, 1]."""
 
-    def __call__(self, s: Float[Array, ""]) -> Float[Array, ""]:
+    def __call__(self, s: Scalar) -> Scalar:
         raise NotImplementedError
 
 
 class ConstantTemperature(AbstractTemperatureProfile):
     """T(s) = `value` [K]."""
 
-    value: Float[Array, ""]
+    value: Scalar
 
     def __call__(self, s):
         return self.value
@@ -27,8 +28,8 @@ class ConstantTemperature(AbstractTemperatureProfile):
 class LinearRamp(AbstractTemperatureProfile):
     """T(s) = `start` + (`end` - `start`) s [K]."""
 
-    start: Float[Array, ""]
-    end: Float[Array, ""]
+    start: Scalar
+    end: Scalar
 
     def __call__(self, s):
         return self.start + (self.end - self.start) * s

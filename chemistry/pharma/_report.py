@@ -20,8 +20,8 @@ from snapo_ode import atomic_write_bytes, atomic_write_json, atomic_write_text
 
 from ._chain import DEFAULT_MECHANISM, PharmaChain
 from ._design_space import design_space
-from ._parameters import CPP_NAMES, CPP_RANGES, CQA_NAMES, CQA_SPECS, CPPs, PHYSICAL_NAMES
-from ._sensitivities import chain_inputs
+from ._parameters import PHYSICAL_NAMES, CPPs
+from ._ranges import CPP_NAMES, CPP_RANGES, CQA_NAMES, CQA_SPECS
 from ._study import REFERENCE, sensitivity_study
 from ._verification import cantera_check, stiffness_ratio
 
@@ -69,11 +69,12 @@ def provenance(chain: PharmaChain, cpps: CPPs, physical, mechanism_path) -> dict
 def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 5, samples: int = 32, repeats: int = 5,
                  mechanism_path=DEFAULT_MECHANISM) -> dict:
     """Every number of the report, as a JSON-ready dict."""
-    inputs = chain_inputs(chain, cpps)
-    study, _ = sensitivity_study(chain, cpps, repeats=repeats)
+    inputs = chain.inputs(cpps)
+    result = sensitivity_study(chain, cpps, repeats=repeats)
+    study = result.to_json()
     tight = chain.with_solver(REFERENCE)
     cantera = cantera_check(tight, cpps, inputs.physical, mechanism_path)
-    space = design_space(chain, cpps, points=points, samples=samples)
+    space = design_space(chain, cpps, points=points, samples=samples).to_json()
     return {
         "cpps": [{"name": r.name, "unit": r.unit, "value": study["cpps"][r.name], "nominal": r.nominal,
                   "nor": list(r.nor), "par": list(r.par), "description": r.description} for r in CPP_RANGES],
@@ -275,8 +276,9 @@ def _pdf(report: dict, tornado_figure, design_figure) -> bytes:
     return buffer.getvalue()
 
 
-def write_report(out: pathlib.Path, report: dict) -> list[pathlib.Path]:
-    """Write report.json, sensitivities.csv, report.html and report.pdf under `out`, atomically."""
+def write_report(out: pathlib.Path, report: dict, json_path: pathlib.Path | None = None) -> list[pathlib.Path]:
+    """Write report.json (or `json_path`), sensitivities.csv, report.html and report.pdf under
+    `out`, each atomically."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -293,7 +295,7 @@ def write_report(out: pathlib.Path, report: dict) -> list[pathlib.Path]:
             writer.writerow([cqa, name, "parameter", repr(value),
                              repr(study["parameter_sensitivities_normalized"][cqa][name])])
     return [
-        atomic_write_json(out / "report.json", report),
+        atomic_write_json(json_path or out / "report.json", report),
         atomic_write_text(out / "sensitivities.csv", buffer.getvalue()),
         atomic_write_text(out / "report.html", render_html(report, tornado_png, design_png)),
         atomic_write_bytes(out / "report.pdf", _pdf(report, tornado, design)),

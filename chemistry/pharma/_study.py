@@ -1,18 +1,31 @@
-"""`snapo pharma sensitivities`: the ICH Q8 sensitivity study as a JSON-ready dict."""
+"""`snapo pharma sensitivities`: the ICH Q8 sensitivity study as a typed result, every sensitivity
+checked against central differences and a tight-tolerance reference through the core's one
+verification path (`snapo_ode.compare_with_bumps`, `snapo_ode.agreement`)."""
+
+import dataclasses
+import functools
+from typing import ClassVar
 
 import numpy as np
 
-from ._chain import PharmaChain
-from ._parameters import CPP_NAMES, CQA_NAMES, CPPs, outside_par
-from ._sensitivities import (
-    Sensitivities, bump_agreement, central_differences, chain_inputs, input_names, input_scales, max_rel_diff, sensitivities)
-from ._solver import ChainSolver
+from snapo_ode import Jacobian, Result, agreement, call_checked, compare_with_bumps, field, time_function
 
-# The reference is integrated by a different method (ESDIRK Kvaerno5 on every unit) from the
-# default (Rodas4 and Tsit5), so that `reference_rel_error` checks the method as well as the step.
-REFERENCE = ChainSolver(rtol=1e-12, atol=1e-14, solver="kvaerno5", nonstiff_solver="kvaerno5", max_steps=20000)
-# Central differences need a solver error far below their step: the reference for the bumps.
-BUMP_SOLVER = ChainSolver(rtol=1e-10, atol=1e-12)
+from ._chain import CHAIN_SOLVER, PharmaChain
+from ._parameters import ChainInputs, CPPs, outside_par
+from ._ranges import CPP_NAMES, CQA_NAMES
+from ._sensitivities import (
+    cqa_function, input_names, input_scales, jacobian_function, named_jacobian, normalized, parameter_names,
+    resolve_mode)
+
+REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="kvaerno5", nonstiff_solver="kvaerno5",
+                                 max_steps=20000)
+"""The reference Jacobian's solver: a different method (ESDIRK Kvaerno5 on every unit) from the
+default (Rodas4 and Tsit5), so that `reference_rel_error` checks the method as well as the step."""
+BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
+"""The central differences' solver: an error far below their step."""
+BUMP_RELATIVE_STEP = 1e-3
+"""Relative step of the Richardson central differences (error O(h^4), so the solver's error over h
+stays far below 1e-5)."""
 
 
 def by_name(matrix, columns) -> dict:
@@ -21,62 +34,110 @@ def by_name(matrix, columns) -> dict:
             for cqa, row in zip(CQA_NAMES, np.asarray(matrix), strict=True)}
 
 
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class SensitivityStudy(Result):
+    """Every CQA's sensitivity to every CPP and parameter at one operating point, with its checks.
+
+    JSON fields (docs/pharma.md): `cpps`, `warnings` (CPPs outside their PAR), `cqas`, `matrix`
+    (d CQA / d CPP), `normalized` (d ln CQA / d ln CPP), `parameter_sensitivities` (and
+    `_normalized`), `mode`, `passes`, `seconds_median`, `compile_seconds`, `solver`, `effects`;
+    with the bumps `max_rel_diff_fd` (the 20 CPP entries), `max_rel_diff_fd_parameters` (all,
+    as d CQA / d ln x), `fd_at_structural_zeros`, `fd_solver`; with the reference
+    `reference_rel_error`, `reference_rel_error_parameters`, `reference_cqa_rel_error`,
+    `reference_solver`. Also carried: the named `jacobian` and the `inputs`."""
+
+    cpps: dict
+    warnings: list
+    cqas: dict
+    matrix: dict
+    normalized: dict
+    parameter_sensitivities: dict
+    parameter_sensitivities_normalized: dict
+    mode: str
+    passes: int
+    seconds_median: float
+    compile_seconds: float
+    solver: dict
+    effects: list
+    max_rel_diff_fd: float | None = None
+    max_rel_diff_fd_parameters: float | None = None
+    fd_at_structural_zeros: float | None = None
+    fd_solver: dict | None = None
+    reference_rel_error: float | None = None
+    reference_rel_error_parameters: float | None = None
+    reference_cqa_rel_error: float | None = None
+    reference_solver: dict | None = None
+    jacobian: Jacobian = field(json=False)
+    inputs: ChainInputs = field(json=False)
+    omit_none: ClassVar[bool] = True
+
+    def summary(self) -> str:
+        """The 5x4 matrix, normalised, with the checks."""
+        lines = [f"CQA sensitivities to CPPs ({self.mode} mode, {self.passes} passes): "
+                 f"{1e3 * self.seconds_median:.1f} ms median, {self.compile_seconds:.1f} s compile"]
+        lines.append(f"{'CQA':<20}{'value':>12}  " + "".join(f"{n:>20}" for n in CPP_NAMES))
+        for cqa in CQA_NAMES:
+            row = "".join(f"{self.normalized[cqa][n]:>20.4g}" for n in CPP_NAMES)
+            lines.append(f"{cqa:<20}{self.cqas[cqa]:>12.5g}  {row}")
+        lines.append("(normalised: d ln CQA / d ln CPP)")
+        if self.max_rel_diff_fd is not None:
+            lines.append(f"max relative difference to central differences: {self.max_rel_diff_fd:.1e} (20 CPP), "
+                         f"{self.max_rel_diff_fd_parameters:.1e} (all)")
+        if self.reference_rel_error is not None:
+            lines.append(f"relative error against the rtol {self.reference_solver['rtol']:g} reference: "
+                         f"{self.reference_rel_error:.1e} (20 CPP), {self.reference_rel_error_parameters:.1e} (all)")
+        lines.extend(f"warning: {w}" for w in self.warnings)
+        return "\n".join(lines)
+
+
+def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto", repeats: int = 5
+                  ) -> tuple[Jacobian, object]:
+    """The named Jacobian of the CQAs over every input (`mode` "auto" picks reverse for 5
+    outputs and ~50 inputs: 5 passes) and its `snapo_ode.Timing`."""
+    mode = resolve_mode(mode, len(input_names(chain)))
+    timing, (values, matrix) = time_function(jacobian_function(chain, True, mode), inputs, repeats=repeats)
+    return named_jacobian(chain, inputs, values, matrix, mode), timing
+
+
 def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
-                      check_bumps: bool = True, reference: ChainSolver | None = REFERENCE) -> tuple[dict, Sensitivities]:
-    """Every CQA's sensitivity to every CPP and parameter at `cpps`, timed, with the central
-    differences (at `BUMP_SOLVER`'s tolerances) and the tight-tolerance reference next to it."""
-    inputs = chain_inputs(chain, cpps)
-    result = sensitivities(chain, inputs, mode=mode, repeats=repeats)
-    names = input_names(chain)
-    full = np.concatenate([result.matrix, result.parameters], axis=1)
+                      check_bumps: bool = True, reference=REFERENCE) -> SensitivityStudy:
+    """Every CQA's sensitivity to every CPP and parameter at `cpps`, timed, next to Richardson
+    central differences (at `BUMP_SOLVER`'s tolerances) and the Jacobian at `reference`'s
+    tolerances (None: skipped)."""
+    inputs = chain.inputs(cpps)
+    mode = resolve_mode(mode, len(input_names(chain)))
     scales = input_scales(inputs)
-    out = {
-        "cpps": cpps.as_dict(),
-        "warnings": outside_par(cpps),
-        "cqas": {name: float(v) for name, v in zip(CQA_NAMES, result.cqas, strict=True)},
-        "matrix": by_name(result.matrix, CPP_NAMES),
-        "normalized": by_name(result.normalized, CPP_NAMES),
-        "parameter_sensitivities": by_name(result.parameters, result.parameter_names),
-        "parameter_sensitivities_normalized": by_name(
-            result.parameters * scales[len(CPP_NAMES):] / result.cqas[:, None], result.parameter_names),
-        "mode": result.mode,
-        "passes": len(CQA_NAMES) if result.mode == "reverse" else len(names),
-        "seconds_median": result.seconds_median,
-        "compile_seconds": result.compile_seconds,
-        "solver": chain.solver.as_dict(),
-        "effects": sorted(chain.scene.active),
-    }
+    checks = {}
     if check_bumps:
-        bumped = central_differences(chain.with_solver(BUMP_SOLVER), inputs, range(len(names)))
-        out["max_rel_diff_fd"] = max_rel_diff(result.matrix, bumped[:, :len(CPP_NAMES)])
-        nonzero, at_zeros = bump_agreement(full, bumped, scales)
-        out["max_rel_diff_fd_parameters"] = nonzero
-        out["fd_at_structural_zeros"] = at_zeros
-        out["fd_solver"] = BUMP_SOLVER.as_dict()
+        comparison = compare_with_bumps(
+            cqa_function(chain), inputs, adjoint_fn=jacobian_function(chain, True, mode),
+            bump_fn=cqa_function(chain.with_solver(BUMP_SOLVER)), relative_step=BUMP_RELATIVE_STEP, step_floor=0.0,
+            richardson=True, scales=scales, zero=1e-12, repeats=repeats, bump_repeats=1,
+            call=functools.partial(call_checked, what="the chain's sensitivities"))
+        jac = named_jacobian(chain, inputs, comparison.value, comparison.adjoint, mode)
+        seconds, compile_seconds = comparison.adjoint_seconds, comparison.adjoint_compile_seconds
+        bumped = named_jacobian(chain, inputs, comparison.value, comparison.bumped, mode)
+        checks.update(max_rel_diff_fd=agreement(jac.columns(CPP_NAMES), bumped.columns(CPP_NAMES)).max_rel_diff,
+                      max_rel_diff_fd_parameters=comparison.agreement.max_rel_diff,
+                      fd_at_structural_zeros=comparison.agreement.at_structural_zeros,
+                      fd_solver=BUMP_SOLVER.as_dict())
+    else:
+        jac, timing = sensitivities(chain, inputs, mode=mode, repeats=repeats)
+        seconds, compile_seconds = timing.median_seconds, timing.compile_seconds
     if reference is not None:
-        tight = sensitivities(chain.with_solver(reference), inputs, mode="reverse", repeats=1)
-        out["reference_rel_error"] = max_rel_diff(result.matrix, tight.matrix)
-        out["reference_rel_error_parameters"] = max_rel_diff(
-            full, np.concatenate([tight.matrix, tight.parameters], axis=1), scales)
-        out["reference_cqa_rel_error"] = float(np.max(np.abs(result.cqas - tight.cqas) / np.abs(tight.cqas)))
-        out["reference_solver"] = reference.as_dict()
-    return out, result
-
-
-def summary_table(study: dict) -> str:
-    """The 5x4 matrix, normalised, with the checks, as text."""
-    lines = [f"CQA sensitivities to CPPs ({study['mode']} mode, {study['passes']} passes): "
-             f"{1e3 * study['seconds_median']:.1f} ms median, {study['compile_seconds']:.1f} s compile"]
-    lines.append(f"{'CQA':<20}{'value':>12}  " + "".join(f"{n:>20}" for n in CPP_NAMES))
-    for cqa in CQA_NAMES:
-        row = "".join(f"{study['normalized'][cqa][n]:>20.4g}" for n in CPP_NAMES)
-        lines.append(f"{cqa:<20}{study['cqas'][cqa]:>12.5g}  {row}")
-    lines.append("(normalised: d ln CQA / d ln CPP)")
-    if "max_rel_diff_fd" in study:
-        lines.append(f"max relative difference to central differences: {study['max_rel_diff_fd']:.1e} (20 CPP), "
-                     f"{study['max_rel_diff_fd_parameters']:.1e} (all)")
-    if "reference_rel_error" in study:
-        lines.append(f"relative error against the rtol {study['reference_solver']['rtol']:g} reference: "
-                     f"{study['reference_rel_error']:.1e} (20 CPP), {study['reference_rel_error_parameters']:.1e} (all)")
-    lines.extend(f"warning: {w}" for w in study["warnings"])
-    return "\n".join(lines)
+        tight, _ = sensitivities(chain.with_solver(reference), inputs, mode="reverse", repeats=1)
+        values, tight_values = np.asarray(jac.values), np.asarray(tight.values)
+        checks.update(reference_rel_error=agreement(jac.columns(CPP_NAMES), tight.columns(CPP_NAMES)).max_rel_diff,
+                      reference_rel_error_parameters=agreement(jac.matrix, tight.matrix, scales=scales).max_rel_diff,
+                      reference_cqa_rel_error=float(np.max(np.abs(values - tight_values) / np.abs(tight_values))),
+                      reference_solver=reference.as_dict())
+    parameters = parameter_names(chain)
+    return SensitivityStudy(
+        cpps=cpps.as_dict(), warnings=outside_par(cpps),
+        cqas={name: float(v) for name, v in zip(CQA_NAMES, np.asarray(jac.values), strict=True)},
+        matrix=jac.named(CPP_NAMES), normalized=by_name(normalized(jac, inputs, CPP_NAMES), CPP_NAMES),
+        parameter_sensitivities=jac.named(parameters),
+        parameter_sensitivities_normalized=by_name(normalized(jac, inputs, parameters), parameters),
+        mode=mode, passes=len(CQA_NAMES) if mode == "reverse" else len(jac.input_names),
+        seconds_median=seconds, compile_seconds=compile_seconds, solver=chain.solver.as_dict(),
+        effects=sorted(chain.scene.active), jacobian=jac, inputs=inputs, **checks)

@@ -3,14 +3,16 @@ stiffness ratio, and R1 against SciPy's Radau at tight tolerance. Used by the te
 
 from typing import NamedTuple
 
+import diffrax
 import jax
 import numpy as np
 
 from chemistry import compare_rates
 
 from ._chain import PharmaChain
-from ._liquid import TEMPERATURE_SCALE
+from ._liquid import TEMPERATURE_SCALE, LiquidBatch
 from ._parameters import CPPs, PhysicalParameters
+from ._profiles import ConstantTemperature
 
 
 class CanteraCheck(NamedTuple):
@@ -29,12 +31,11 @@ def stiffness_ratio(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters
     d(dy/dt)/dy [1/s] at its feed (or at `state`, amounts [kmol/m^3]) and the R1 temperature.
     Eigenvalues below 1e-13 of the largest are the conserved quantities' zeros (solvent,
     element balances) up to round-off."""
-    mechanism, rates = chain.active_kinetics(chain.rate_parameters)
-    from ._liquid import LiquidBatch
-
-    unit = LiquidBatch(mechanism, False)
-    start = chain.feed(cpps.r1_temperature, rates, physical, mechanism) if state is None else state
-    jacobian = jax.jacfwd(lambda y: unit.production(cpps.r1_temperature, y, rates))(start)
+    inputs = chain.inputs(cpps, physical=physical)
+    mechanism, active = chain.active(inputs)
+    batch = LiquidBatch(mechanism, False)
+    start = chain.feed(inputs).amounts if state is None else state
+    jacobian = jax.jacfwd(lambda y: batch.production(cpps.r1_temperature, y, active.rates))(start)
     magnitudes = np.abs(np.linalg.eigvals(np.asarray(jacobian)).real)
     nonzero = magnitudes[magnitudes > 1e-13 * magnitudes.max()]
     return float(nonzero.max() / nonzero.min())
@@ -42,7 +43,9 @@ def stiffness_ratio(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters
 
 def r1_trajectory(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
     """R1's accepted steps: (times [s], amounts [kmol/m^3] shape (n, n_species), T [K] shape (n,))."""
-    solution = chain.run_r1(cpps, chain.rate_parameters, physical, steps=True)
+    inputs = chain.inputs(cpps, physical=physical)
+    _, active = chain.active(inputs)
+    solution = chain.r1(inputs)(chain.feed(inputs), active, chain.solver, saveat=diffrax.SaveAt(steps=True))
     finite = np.isfinite(np.asarray(solution.ts))
     ys = np.asarray(solution.ys)[finite]
     n_species = chain.mechanism.n_species
@@ -50,12 +53,18 @@ def r1_trajectory(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
     return 60.0 * float(cpps.r1_residence_time) * np.asarray(solution.ts)[finite], ys[:, :n_species], temperature
 
 
+def r1_outlet(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
+    """R1's outlet `Liquid` at `cpps` (amounts [kmol per m^3 of feed volume], T [K])."""
+    inputs = chain.inputs(cpps, physical=physical)
+    _, active = chain.active(inputs)
+    return chain.r1(inputs)(chain.feed(inputs), active, chain.solver)
+
+
 def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, rtol=1e-11):
     """R1 integrated by Cantera: (amounts per m^3 of feed volume, T [K]) at the outlet."""
     import cantera
 
-    mechanism, rates = chain.active_kinetics(chain.rate_parameters)
-    feed = np.asarray(chain.feed(cpps.r1_temperature, rates, physical, mechanism))
+    feed = np.asarray(chain.feed(chain.inputs(cpps, physical=physical)).amounts)
     liquid = cantera.Solution(str(path))
     temperature = float(cpps.r1_temperature)
     liquid.TPX = temperature, cantera.one_atm, feed / feed.sum()
@@ -78,7 +87,7 @@ def cantera_check(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, 
     """The mechanism and R1 against Cantera (`chain` should use tight tolerances)."""
     rates = compare_rates(chain.mechanism, path, n_states=n_states, temperature=(270.0, 360.0))
     amounts, temperature = cantera_r1(chain, cpps, physical, path)
-    outlet = chain.run_r1(cpps, chain.rate_parameters, physical)
+    outlet = r1_outlet(chain, cpps, physical)
     ours = np.asarray(outlet.amounts)
     significant = amounts > 1e-12 * amounts.max()
     return CanteraCheck(
@@ -93,17 +102,13 @@ def scipy_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, rt
     """R1 integrated by SciPy's Radau (an independent implicit Runge-Kutta code) at tight
     tolerances, on the same right-hand side and its exact Jacobian: the outlet state (amounts
     [kmol/m^3], then T / 300 K with the energy balance)."""
-    import jax.numpy as jnp
     from scipy.integrate import solve_ivp
 
-    from ._liquid import LiquidBatch
-    from ._profiles import ConstantTemperature
-
-    mechanism, rates = chain.active_kinetics(chain.rate_parameters)
+    inputs = chain.inputs(cpps, physical=physical)
+    mechanism, active = chain.active(inputs)
     unit = LiquidBatch(mechanism, chain.scene.has("energy_balance"))
-    feed = chain.feed(cpps.r1_temperature, rates, physical, mechanism)
-    start = jnp.append(feed, cpps.r1_temperature / TEMPERATURE_SCALE) if unit.energy_balance else feed
-    args = (rates, ConstantTemperature(cpps.r1_temperature), 60.0 * cpps.r1_residence_time, physical.jacket_ua)
+    start = unit.start(chain.feed(inputs))
+    args = (active.rates, ConstantTemperature(cpps.r1_temperature), 60.0 * cpps.r1_residence_time, physical.jacket_ua)
     rhs = jax.jit(lambda s, y: unit.rhs(s, y, args))
     jac = jax.jit(jax.jacfwd(lambda s, y: unit.rhs(s, y, args), argnums=1))
     solution = solve_ivp(lambda s, y: np.asarray(rhs(s, y)), (0.0, 1.0), np.asarray(start), method="Radau",
