@@ -2,7 +2,7 @@
 
 from snapo_ode.cli import CommandLine
 
-from ._alm_cli import register_alm
+from .alm._cli import register_alm
 from .gas_storage._cli import register_gas
 
 

@@ -2,32 +2,33 @@
 adjoint against batched central bump-and-revalue and batched forward mode, same paths and
 horizon at every N, measured side by side in one run."""
 
-import csv
 import io
 import pathlib
 
 import jax
 from tqdm.auto import tqdm
 
-from snapo_ode import atomic_write_bytes, atomic_write_text
+from snapo_ode import Column, atomic_write_bytes, check_count, write_table
+from snapo_ode import format_table as markdown_table
 
 from ._factors import layout_for
 from ._policy import NeuralRebalancing
-from ._study import build_study, check_count, measure_sensitivities, scenarios
+from ._study import build_study, measure_sensitivities, scenarios
 
 DEFAULT_COUNTS = (10, 50, 100, 500, 1000, 2000)
 COLUMNS = (
-    "n_risk_factors", "n_tenors", "n_equities", "n_liability", "adjoint_seconds", "bump_seconds",
-    "forward_mode_seconds", "speedup", "target_speedup", "forward_mode_speedup", "max_rel_diff",
-    "max_rel_diff_forward_mode", "adjoint_compile_seconds", "bump_compile_seconds",
-    "forward_mode_compile_seconds",
+    Column("N", "n_risk_factors"), Column("adjoint (one reverse pass) s", "adjoint_seconds", ".4f"),
+    Column("central bump, batched (2N+1 runs) s", "bump_seconds", ".3f"),
+    Column("forward mode (N tangents) s", "forward_mode_seconds", ".3f"),
+    Column("speedup over bump", "speedup", lambda v: f"{v:.0f}x"),
+    Column("target N/4", "target_speedup", lambda v: f"{v:.1f}x"), Column("adjoint vs bump", "max_rel_diff", ".1e"),
 )
 
 
 def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: int = 120,
                  repeats: int = 3, seed: int = 0, progress: bool = True) -> list[dict]:
     """One row per N in `counts`: median seconds of the three methods (bump and forward mode
-    run once after compiling when N > 100, `repeats` times otherwise), the speedup of the
+    run once after the first call when N > 100, `repeats` times otherwise), the speedup of the
     adjoint over the bump, its target N/4, and the largest relative differences."""
     for n in counts:
         layout_for(n)
@@ -42,45 +43,32 @@ def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: i
         measured = measure_sensitivities(study, policy, shocks, repeats=repeats,
                                          baseline_repeats=repeats if n <= 100 else 1)
         layout = study.layout
-        compile_seconds = measured["compile_seconds"]
         rows.append(dict(
-            n_risk_factors=layout.n_risk_factors, n_tenors=layout.n_tenors,
-            n_equities=layout.n_equities, n_liability=layout.n_liability,
-            target_speedup=layout.n_risk_factors / 4,
-            adjoint_compile_seconds=compile_seconds["adjoint"],
-            bump_compile_seconds=compile_seconds["bump"],
-            forward_mode_compile_seconds=compile_seconds["forward_mode"],
-            **{k: measured[k] for k in COLUMNS if k in measured},
+            n_risk_factors=layout.n_risk_factors, n_tenors=layout.n_tenors, n_equities=layout.n_equities,
+            n_liability=layout.n_liability, adjoint_seconds=measured.adjoint_seconds,
+            bump_seconds=measured.bump_seconds, forward_mode_seconds=measured.forward_mode_seconds,
+            speedup=measured.speedup, target_speedup=layout.n_risk_factors / 4,
+            forward_mode_speedup=measured.forward_mode_speedup, max_rel_diff=measured.max_rel_diff,
+            max_rel_diff_forward_mode=measured.max_rel_diff_forward_mode,
+            **{f"{method}_compile_seconds": seconds for method, seconds in measured.compile_seconds.items()},
         ))
     return rows
 
 
 def format_table(rows: list[dict]) -> str:
     """A Markdown table of the main columns."""
-    lines = ["| N | adjoint [s] | bump [s] | forward mode [s] | speedup | target N/4 | max rel diff |",
-             "| ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
-    for row in rows:
-        lines.append(
-            f"| {row['n_risk_factors']} | {row['adjoint_seconds']:.4f} | {row['bump_seconds']:.3f} "
-            f"| {row['forward_mode_seconds']:.3f} | {row['speedup']:.0f}x | "
-            f"{row['target_speedup']:.1f}x | {row['max_rel_diff']:.1e} |")
-    return "\n".join(lines)
+    return markdown_table(rows, COLUMNS)
 
 
-def write_scaling(rows: list[dict], out_dir) -> tuple[pathlib.Path, pathlib.Path]:
-    """Write `alm_scaling.csv` and `alm_scaling.png` into `out_dir`, atomically."""
+def write_scaling(rows: list[dict], out_dir) -> tuple[pathlib.Path, pathlib.Path, pathlib.Path]:
+    """Write `alm_scaling.csv`, `alm_scaling.json` and `alm_scaling.png` into `out_dir`, atomically."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     out_dir = pathlib.Path(out_dir)
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=COLUMNS)
-    writer.writeheader()
-    writer.writerows(rows)
-    csv_path = atomic_write_text(out_dir / "alm_scaling.csv", buffer.getvalue())
-
+    csv_path, json_path = write_table(out_dir, "alm_scaling", rows)
     counts = [row["n_risk_factors"] for row in rows]
     figure, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
     for label, column in (("adjoint (one reverse pass)", "adjoint_seconds"),
@@ -100,4 +88,4 @@ def write_scaling(rows: list[dict], out_dir) -> tuple[pathlib.Path, pathlib.Path
     figure.savefig(image, format="png", dpi=120)
     plt.close(figure)
     png_path = atomic_write_bytes(out_dir / "alm_scaling.png", image.getvalue())
-    return csv_path, png_path
+    return csv_path, json_path, png_path

@@ -13,9 +13,12 @@ import jax.numpy as jnp
 import numpy as np
 
 import snapo_ode
-from snapo_ode import InputError, TrainResult, max_relative_difference
+from snapo_ode import (
+    TrainResult, check_count, compare_with_bumps, require_float64, time_function, value_and_sensitivities)
 
-from . import _sensitivities as sensitivities
+from ._results import ALMStudy, Evaluation, SensitivityMeasurement
+from ._sensitivities import (
+    BUMP_RELATIVE_STEP, BUMP_ROWS_PER_CHUNK, FORWARD_ROWS_PER_CHUNK, chunk_size, objective_of_reported)
 from ._factors import (
     FactorLayout,
     check_factors,
@@ -47,13 +50,6 @@ class Study(NamedTuple):
         return self.problem.market
 
 
-def check_count(field: str, value, low: int = 1) -> int:
-    """Raise unless `value` is an integer >= `low`."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise InputError(f"{field} = {value!r}; allowed: an integer >= {low}.")
-    return int(value)
-
-
 def build_study(n_risk_factors: int, *, horizon_months: int = 120, effects=None,
                 without=(), config: ALMConfig | None = None, correlation=None,
                 factors: dict | None = None) -> Study:
@@ -63,6 +59,7 @@ def build_study(n_risk_factors: int, *, horizon_months: int = 120, effects=None,
     **Raises:** `InputError` naming the field for a bad count, horizon, correlation, factor
     value, effect name or effect parameter.
     """
+    require_float64("ALM studies")
     layout = layout_for(n_risk_factors)
     market = Market(key_tenors(layout.n_tenors), layout.n_equities, correlation=correlation)
     problem = ALMProblem(market, layout, EFFECTS.scene(effects, without=without),
@@ -104,7 +101,7 @@ def train_policy(study: Study, *, steps: int, n_paths: int = 256, key=None,
     check_count("train_paths", n_paths)
     key = jax.random.key(0) if key is None else key
     initial = NeuralRebalancing(study.market, key=jax.random.fold_in(key, 0))
-    objective_fn = sensitivities.objective_of_reported(study.problem, study.fixed)
+    objective_fn = objective_of_reported(study.problem, study.fixed)
     reported = study.reported
 
     def loss(policy, step_key):
@@ -131,68 +128,67 @@ def _hard_and_smooth(problem: ALMProblem, policy: AbstractRebalancing, factors: 
             simulate(problem, policy, factors, shocks, smooth_constraints=True))
 
 
-def evaluate(study: Study, policy: AbstractRebalancing, shocks) -> dict:
-    """The objective with exact constraints (`objective`), with the smooth surrogates
-    (`objective_smooth`) and their `smoothing_gap`, and the funding-ratio statistics (exact).
+def evaluate(study: Study, policy: AbstractRebalancing, shocks) -> Evaluation:
+    """The policy evaluated hard and smooth on `shocks`.
 
-    **Raises:** `FloatingPointError` if any result is not finite.
+    **Raises:** `FloatingPointError` if the objective is not finite.
     """
     hard, soft = _hard_and_smooth(study.problem, policy, {**study.fixed, **study.reported}, shocks)
-    result = dict(objective=float(jnp.mean(hard.utility)),
-                  objective_smooth=float(jnp.mean(soft.utility)),
-                  funding_ratio=funding_ratio_statistics(hard.funding_ratio),
-                  mean_surplus=float(jnp.mean(hard.surplus)))
-    result["smoothing_gap"] = result["objective_smooth"] - result["objective"]
-    if not np.all(np.isfinite([result["objective"], result["objective_smooth"]])):
-        raise FloatingPointError(f"the ALM objective is not finite: {result}; check the inputs.")
-    return result
+    objective, smooth = float(jnp.mean(hard.utility)), float(jnp.mean(soft.utility))
+    if not np.all(np.isfinite([objective, smooth])):
+        raise FloatingPointError(f"the ALM objective is not finite ({objective}, smooth {smooth}); check the inputs.")
+    return Evaluation(objective=objective, objective_smooth=smooth, smoothing_gap=smooth - objective,
+                      funding_ratio=funding_ratio_statistics(hard.funding_ratio),
+                      mean_surplus=float(jnp.mean(hard.surplus)))
 
 
-def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *,
-                          baselines: bool = True, repeats: int = 3,
-                          baseline_repeats: int | None = None) -> dict:
+def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, baselines: bool = True,
+                          repeats: int = 3, baseline_repeats: int | None = None) -> SensitivityMeasurement:
     """Sensitivities of the smooth objective to every reported factor by one reverse pass, and,
     with `baselines`, by batched central bump-and-revalue and batched forward mode on the same
-    paths, timed side by side in this call (medians after an ahead-of-time compile).
+    paths (`snapo_ode.compare_with_bumps`), timed side by side in this call.
 
-    **Returns:** a dict with `value`, `gradient` (pytree), `sensitivities` (name -> value),
-    `adjoint_seconds`, `bump_seconds`, `forward_mode_seconds`, `speedup` (bump / adjoint),
-    `forward_mode_speedup`, `max_rel_diff` (adjoint vs bump), `max_rel_diff_forward_mode`, and
-    `compile_seconds` per method; baseline entries are None without `baselines`.
+    **Raises:** `FloatingPointError` if the objective or a sensitivity is not finite.
     """
-    n = study.layout.n_risk_factors
-    n_paths = shocks.shape[1]
-    fn = sensitivities.objective_of_reported(study.problem, study.fixed)
+    n, n_paths = study.layout.n_risk_factors, shocks.shape[1]
+    fn = objective_of_reported(study.problem, study.fixed)
     args = (study.reported, policy, shocks)
-    timing, (value, gradient) = sensitivities.time_compiled(sensitivities.adjoint(fn), *args,
-                                                            repeats=repeats)
-    out = dict(value=float(value), gradient=gradient,
-               sensitivities=named_sensitivities(gradient, study.layout, study.market),
-               adjoint_seconds=timing.median_seconds, bump_seconds=None,
-               forward_mode_seconds=None, speedup=None, forward_mode_speedup=None,
-               max_rel_diff=None, max_rel_diff_forward_mode=None,
-               compile_seconds=dict(adjoint=timing.compile_seconds, bump=None, forward_mode=None))
-    if not np.isfinite(out["value"]) or not all(np.isfinite(v) for v in out["sensitivities"].values()):
+    comparison = None
+    if baselines:
+        comparison = compare_with_bumps(
+            fn, *args, relative_step=BUMP_RELATIVE_STEP, batch_size=chunk_size(2 * n, n_paths, BUMP_ROWS_PER_CHUNK),
+            repeats=repeats, bump_repeats=baseline_repeats, forward_mode=True,
+            forward_batch_size=chunk_size(n, n_paths, FORWARD_ROWS_PER_CHUNK))
+        value, gradient = comparison.value, comparison.adjoint
+        seconds, compile_seconds = comparison.adjoint_seconds, comparison.adjoint_compile_seconds
+    else:
+        adjoint = eqx.filter_jit(lambda *args: value_and_sensitivities(fn, *args))
+        timing, (value, gradient) = time_function(adjoint, *args, repeats=repeats)
+        seconds, compile_seconds = timing.median_seconds, timing.compile_seconds
+    named = named_sensitivities(gradient, study.layout, study.market)
+    if not np.isfinite(float(value)) or not all(np.isfinite(v) for v in named.values()):
         raise FloatingPointError("the ALM objective or a sensitivity is not finite; check the inputs.")
-    if not baselines:
-        return out
-    repeats_b = repeats if baseline_repeats is None else baseline_repeats
-    for label, method in (("bump", sensitivities.bump(fn, n, n_paths)),
-                          ("forward_mode", sensitivities.forward(fn, n, n_paths))):
-        timing, (_, reference) = sensitivities.time_compiled(method, *args, repeats=repeats_b)
-        out[f"{label}_seconds"] = timing.median_seconds
-        out["compile_seconds"][label] = timing.compile_seconds
-        suffix = "" if label == "bump" else "_forward_mode"
-        out[f"max_rel_diff{suffix}"] = max_relative_difference(gradient, reference)
-    out["speedup"] = out["bump_seconds"] / out["adjoint_seconds"]
-    out["forward_mode_speedup"] = out["forward_mode_seconds"] / out["adjoint_seconds"]
-    return out
+    baseline = {}
+    if comparison is not None:
+        baseline = dict(bump_seconds=comparison.bump_seconds, forward_mode_seconds=comparison.forward_mode_seconds,
+                        speedup=comparison.speedup,
+                        forward_mode_speedup=comparison.forward_mode_seconds / comparison.adjoint_seconds,
+                        max_rel_diff=comparison.max_rel_diff,
+                        max_rel_diff_forward_mode=comparison.forward_mode_agreement.max_rel_diff)
+    return SensitivityMeasurement(
+        value=float(value), sensitivities=named, adjoint_seconds=seconds,
+        **{key: baseline.get(key) for key in ("bump_seconds", "forward_mode_seconds", "speedup",
+                                              "forward_mode_speedup", "max_rel_diff", "max_rel_diff_forward_mode")},
+        compile_seconds=dict(adjoint=compile_seconds,
+                             bump=comparison.bump_compile_seconds if comparison else None,
+                             forward_mode=comparison.forward_mode_compile_seconds if comparison else None),
+        gradient=gradient, comparison=comparison)
 
 
 def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int = 120,
             bump: bool = False, train_steps: int = 0, train_paths: int = 256, seed: int = 0,
-            progress: bool = True) -> dict:
-    """The `snapo alm` study; returns the JSON payload (see docs/alm.md for every key)."""
+            progress: bool = True) -> ALMStudy:
+    """The `snapo alm` study."""
     check_count("paths", n_paths)
     check_count("train_steps", train_steps, low=0)
     study = build_study(n_risk_factors, horizon_months=horizon_months)
@@ -205,19 +201,10 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
     else:
         policy = NeuralRebalancing(study.market, key=jax.random.fold_in(jax.random.fold_in(key, 1), 0))
         train_seconds = train_compile = 0.0
-    measured = measure_sensitivities(study, policy, shocks, baselines=bump)
-    evaluation = evaluate(study, policy, shocks)
-    payload = dict(
-        n_risk_factors=study.layout.n_risk_factors,
-        layout=study.layout._asdict(),
-        paths=n_paths,
-        horizon_months=horizon_months,
-        effects=sorted(study.problem.scene.active),
-        trained=bool(train_steps),
-        **evaluation,
-        baselines={name: evaluate(study, mix, shocks) for name, mix in baselines(study).items()},
-        train_seconds=train_seconds,
-    )
-    payload.update({k: v for k, v in measured.items() if k not in ("value", "gradient")})
-    payload["compile_seconds"]["train"] = train_compile
-    return payload
+    return ALMStudy(
+        n_risk_factors=study.layout.n_risk_factors, layout=study.layout._asdict(), paths=n_paths,
+        horizon_months=horizon_months, effects=sorted(study.problem.scene.active), trained=bool(train_steps),
+        evaluation=evaluate(study, policy, shocks),
+        baselines={name: evaluate(study, mix, shocks).to_json() for name, mix in baselines(study).items()},
+        train_seconds=train_seconds, train_compile_seconds=train_compile,
+        measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks)

@@ -1,23 +1,21 @@
 """Natural-gas storage: the intrinsic LP, a neural inject/withdraw policy trained with smooth
-constraints, and all forward-curve deltas from one reverse pass."""
+constraints, all forward-curve deltas from one reverse pass, and the least-squares Monte Carlo
+baseline. Public names load on first use (see `snapo_ode.lazy_exports`)."""
 
-from ._inputs import (
-    FACILITY_FIELDS as FACILITY_FIELDS,
-    StorageInputs as StorageInputs,
-    load_curve as load_curve,
-    load_facility as load_facility,
-    make_inputs as make_inputs,
-    sample_curve as sample_curve,
-    sample_facility as sample_facility,
-)
-from ._lp import IntrinsicSolution as IntrinsicSolution, solve_intrinsic as solve_intrinsic
-from ._model import (
-    GAS_EFFECTS as GAS_EFFECTS,
-    Schedule as Schedule,
-    deterministic_scene as deterministic_scene,
-    expected_value as expected_value,
-    inventory_floor as inventory_floor,
-    make_policy as make_policy,
-    simulate as simulate,
-    stochastic_scene as stochastic_scene,
-)
+from snapo_ode import lazy_exports
+
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "._bench": ("run_gas_benchmark",),
+    "._bench_lsmc": ("run_lsmc_benchmark",),
+    "._cases": ("BDJ_MEAN_REVERSION", "BDJ_PUBLISHED", "BDJ_VOLATILITY", "CASES", "boogert_de_jong"),
+    "._files": ("load_curve", "load_facility", "sample_curve", "sample_facility"),
+    "._inputs": ("FACILITY_FIELDS", "StorageInputs", "make_inputs"),
+    "._lp": ("IntrinsicSolution", "solve_intrinsic"),
+    "._lsmc": ("InventoryGrid", "LSMCFit", "fit_lsmc", "inventory_grid", "perfect_foresight", "run_lsmc_policy",
+               "value_lsmc"),
+    "._model": ("GAS_EFFECTS", "Schedule", "deterministic_scene", "expected_value", "inventory_floor", "make_policy",
+                "simulate", "spot_prices", "stochastic_scene"),
+    "._results": ("LSMCComparison", "StorageStudy", "standard_error"),
+    "._study": ("StudySettings", "constraint_violation", "evaluation_shocks", "run_study"),
+    "._versus_lsmc": ("LSMC_KEY", "compare_with_lsmc", "lsmc_fit_shocks"),
+})

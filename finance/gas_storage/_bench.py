@@ -1,20 +1,40 @@
 """`snapo bench gas`: every figure of the storage headline, measured in one run."""
 
-import csv
-import io
 import pathlib
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from snapo_ode import atomic_write_json, atomic_write_text, time_function
+from snapo_ode import Column, format_table, time_function, write_table
 
 from ._cases import CASES
-from ._cli import summary_table
-from ._inputs import make_inputs, sample_curve, sample_facility
+from ._files import sample_curve, sample_facility
+from ._inputs import make_inputs
 from ._model import deterministic_scene, make_policy, simulate_path
 from ._study import StudySettings, run_study
+
+STUDY_COLUMNS = (
+    Column("case", "case"), Column("hard / LP", "value_hard_over_lp", lambda v: f"{100 * v:.2f}%"),
+    Column("train s", "train_seconds", ".1f"), Column("steps", "train_steps"),
+    Column("compile s", "compile_seconds", ".1f"), Column("forward ms", "forward_ms", ".2f"),
+    Column("gradient ms (all inputs + policy)", "gradient_ms", ".2f"), Column("grad/fwd", "gradient_forward_ratio", ".2f"),
+    Column("365 bumps, batched ms", "bump_batched_ms", ".1f"), Column("365 bumps, sequential ms", "bump_sequential_ms", ".0f"),
+    Column("speedup vs batched", "speedup_vs_batched", lambda v: f"{v:.0f}x"),
+    Column("vs sequential", "speedup_vs_sequential", lambda v: f"{v:.0f}x"),
+    Column("adjoint vs bumps", "max_rel_diff", ".1e"),
+)
+ROLLOUT_COLUMNS = (
+    Column("rollout", "method"), Column("forward ms", "forward_seconds", lambda v: f"{1e3 * v:.2f}"),
+    Column("gradient ms", "gradient_seconds", lambda v: f"{1e3 * v:.2f}"),
+    Column("gradient/forward", "gradient_forward_ratio", ".2f"), Column("compile s", "compile_seconds", ".1f"),
+)
+PAIR_COLUMNS = (
+    Column("facility / curve", "case"), Column("intrinsic LP $", "intrinsic_lp", ",.0f"),
+    Column("policy, hard $", "value_hard", ",.0f"), Column("hard / LP", "hard_over_lp", lambda v: f"{100 * v:.2f}%"),
+    Column("smooth - hard $", "smoothing_gap", ",.0f"), Column("worst violation", "max_constraint_violation", ".1e"),
+    Column("train s", "train_seconds", ".1f"),
+)
 
 
 def rollout_comparison(repeats: int) -> list[dict]:
@@ -44,75 +64,52 @@ def facility_pairs(repeats: int) -> list[dict]:
     rows = []
     for name, case in CASES.items():
         facility, curve = case()
-        result, _ = run_study(make_inputs(facility, curve), StudySettings(progress=False, repeats=repeats))
-        rows.append({"case": name, "intrinsic_lp": result["intrinsic_lp"], "value_hard": result["value_hard"],
-                     "hard_over_lp": result["hard_to_lp_ratio"], "smoothing_gap": result["smoothing_gap"],
-                     "max_constraint_violation": result["max_constraint_violation"],
-                     "train_seconds": result["train_seconds"]})
+        study = run_study(make_inputs(facility, curve), StudySettings(progress=False, repeats=repeats))
+        rows.append({"case": name, "intrinsic_lp": study.intrinsic_lp, "value_hard": study.value_hard,
+                     "hard_over_lp": study.hard_to_lp_ratio, "smoothing_gap": study.smoothing_gap,
+                     "max_constraint_violation": study.max_constraint_violation,
+                     "train_seconds": study.train_seconds})
     return rows
+
+
+def study_row(name: str, study) -> dict:
+    """The headline figures of one study with bumps."""
+    fields = study.bump_fields()
+    return {
+        "case": name, "value_hard_over_lp": study.hard_to_lp_ratio, "train_seconds": study.train_seconds,
+        "train_steps": study.train_steps, "compile_seconds": study.compile_seconds,
+        "forward_ms": 1e3 * study.forward_seconds, "gradient_ms": 1e3 * study.gradient_seconds,
+        "gradient_forward_ratio": study.gradient_forward_ratio,
+        "bump_batched_ms": 1e3 * fields["bump_batched_seconds"],
+        "bump_sequential_ms": 1e3 * fields["bump_sequential_seconds"],
+        "speedup_vs_batched": fields["bump_batched_seconds"] / study.gradient_seconds,
+        "speedup_vs_sequential": fields["bump_sequential_seconds"] / study.gradient_seconds,
+        "max_rel_diff": fields["max_rel_diff"],
+    }
 
 
 def run_gas_benchmark(out: pathlib.Path, *, paths: int, repeats: int) -> int:
     """Run the deterministic and stochastic studies with bumps and the rollout comparison;
-    print the table and write `bench_gas.json` and `bench_gas.csv` under `out`."""
+    print the tables and write `bench_gas.json` and `bench_gas.csv` under `out`."""
     inputs = make_inputs(sample_facility(), sample_curve())
     # Millisecond timings on a shared machine: take the median of more runs.
-    deterministic, _ = run_study(inputs, StudySettings(bump=True, repeats=max(repeats, 25)))
-    print(summary_table(deterministic))
+    deterministic = run_study(inputs, StudySettings(bump=True, repeats=max(repeats, 25)))
+    print(deterministic.summary())
     stochastic_inputs = make_inputs(sample_facility(), sample_curve(), volatility=0.5, mean_reversion=2.0)
-    stochastic, _ = run_study(stochastic_inputs, StudySettings(stochastic=True, paths=paths, bump=True,
-                                                            repeats=repeats, train_steps=400))
-    print(summary_table(stochastic))
+    stochastic = run_study(stochastic_inputs, StudySettings(stochastic=True, paths=paths, bump=True, repeats=repeats,
+                                                            train_steps=400))
+    print(stochastic.summary())
     rollouts = rollout_comparison(max(repeats, 25))
     pairs = facility_pairs(1)
-    rows = []
-    for name, result in (("deterministic", deterministic), (f"stochastic, {paths} paths", stochastic)):
-        rows.append({
-            "case": name,
-            "value_hard_over_lp": result["hard_to_lp_ratio"],
-            "train_seconds": result["train_seconds"],
-            "train_steps": result["train_steps"],
-            "compile_seconds": result["compile_seconds"],
-            "forward_ms": 1e3 * result["forward_seconds"],
-            "gradient_ms": 1e3 * result["gradient_seconds"],
-            "gradient_forward_ratio": result["gradient_forward_ratio"],
-            "bump_batched_ms": 1e3 * result["bump_batched_seconds"],
-            "bump_sequential_ms": 1e3 * result["bump_sequential_seconds"],
-            "speedup_vs_batched": result["bump_batched_seconds"] / result["gradient_seconds"],
-            "speedup_vs_sequential": result["bump_sequential_seconds"] / result["gradient_seconds"],
-            "max_rel_diff": result["max_rel_diff"],
-        })
+    rows = [study_row("deterministic", deterministic), study_row(f"stochastic, {paths} paths", stochastic)]
+    print(format_table(rows, STUDY_COLUMNS))
+    print(format_table(rollouts, ROLLOUT_COLUMNS))
     scan, diffrax = rollouts
-    print("\ncase | hard/LP | train s (steps) | compile s | fwd ms | grad ms | grad/fwd | "
-          "bump batched ms | bump sequential ms | speedup batched | speedup sequential | max rel diff")
-    for row in rows:
-        print(f"{row['case']} | {100 * row['value_hard_over_lp']:.2f}% | {row['train_seconds']:.1f} "
-              f"({row['train_steps']}) | {row['compile_seconds']:.1f} | {row['forward_ms']:.2f} | "
-              f"{row['gradient_ms']:.2f} | {row['gradient_forward_ratio']:.2f} | {row['bump_batched_ms']:.1f} | "
-              f"{row['bump_sequential_ms']:.0f} | {row['speedup_vs_batched']:.0f}x | "
-              f"{row['speedup_vs_sequential']:.0f}x | {row['max_rel_diff']:.1e}")
-    print("\nrollout | forward ms | gradient ms | gradient/forward | compile s")
-    for row in rollouts:
-        print(f"{row['method']} | {1e3 * row['forward_seconds']:.2f} | {1e3 * row['gradient_seconds']:.2f} | "
-              f"{row['gradient_forward_ratio']:.2f} | {row['compile_seconds']:.1f}")
     for kind in ("forward", "gradient"):
         ratio = diffrax[f"{kind}_seconds"] / scan[f"{kind}_seconds"]
         faster = "lax.scan" if ratio > 1 else "Diffrax"
         print(f"{kind}: {faster} is faster, by {max(ratio, 1 / ratio):.2f}x")
-    print("\nfacility/curve | intrinsic LP $ | policy, hard $ | hard/LP | smooth - hard $ | worst violation | train s")
-    for row in pairs:
-        print(f"{row['case']} | {row['intrinsic_lp']:,.0f} | {row['value_hard']:,.0f} | {100 * row['hard_over_lp']:.2f}% | "
-              f"{row['smoothing_gap']:,.0f} | {row['max_constraint_violation']:.1e} | {row['train_seconds']:.1f}")
-    write_tables(out, "bench_gas", rows, {"studies": rows, "rollout": rollouts, "facility_pairs": pairs})
+    print(format_table(pairs, PAIR_COLUMNS))
+    paths_written = write_table(out, "bench_gas", rows, {"rollout": rollouts, "facility_pairs": pairs})
+    print(f"written: {', '.join(map(str, paths_written))}")
     return 0
-
-
-def write_tables(out: pathlib.Path, name: str, rows: list[dict], everything: dict) -> None:
-    """Write `rows` as `out/name.csv` and `everything` as `out/name.json`, atomically."""
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
-    writer.writeheader()
-    writer.writerows(rows)
-    atomic_write_text(out / f"{name}.csv", buffer.getvalue())
-    atomic_write_json(out / f"{name}.json", everything)
-    print(f"written: {out / (name + '.csv')}, {out / (name + '.json')}")

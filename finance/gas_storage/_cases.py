@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._inputs import sample_curve, sample_facility
+from ._files import sample_curve, sample_facility
 
 FLAT_RATCHET = [[0.0, 1.0], [1.0, 1.0]]
 _DAYS = np.arange(365)

@@ -4,17 +4,12 @@ Every field is a float array so that one reverse pass gives the sensitivity of t
 each of them. Validation runs in NumPy, before anything is traced.
 """
 
-import csv
-import json
-import os
-from importlib.resources import files
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import InputError, check_finite, check_increasing, check_range
+from snapo_ode import InputError, check_finite, check_increasing, check_range, require_float64
 
 DAYS_PER_YEAR = 365.0
 FACILITY_FIELDS = (
@@ -93,6 +88,7 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
     [0, capacity], a malformed or non-increasing ratchet table, or a terminal requirement that
     cannot be reached at the maximum injection rate.
     """
+    require_float64("gas storage inputs")
     missing = [name for name in FACILITY_FIELDS if name not in facility]
     unknown = sorted(set(facility) - set(FACILITY_FIELDS))
     if missing or unknown:
@@ -140,42 +136,3 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
         volatility=as_array(volatility),
         mean_reversion=as_array(mean_reversion),
     )
-
-
-def load_facility(path: str | os.PathLike) -> dict:
-    """Read a facility JSON file."""
-    try:
-        with open(path) as handle:
-            facility = json.load(handle)
-    except json.JSONDecodeError as error:
-        raise InputError(f"facility file {path}: not valid JSON ({error}).") from None
-    if not isinstance(facility, dict):
-        raise InputError(f"facility file {path}: expected a JSON object of fields.")
-    return facility
-
-
-def load_curve(path: str | os.PathLike) -> np.ndarray:
-    """Read a forward-curve CSV with header `day,price` and days 0..T-1 in order; prices [$/MMBtu]."""
-    with open(path, newline="") as handle:
-        reader = csv.DictReader(handle)
-        if reader.fieldnames is None or [f.strip() for f in reader.fieldnames] != ["day", "price"]:
-            raise InputError(f"curve file {path}: the header must be 'day,price'; got {reader.fieldnames}.")
-        rows = list(reader)
-    try:
-        days = np.array([float(row["day"]) for row in rows])
-        prices = np.array([float(row["price"]) for row in rows])
-    except (TypeError, ValueError) as error:
-        raise InputError(f"curve file {path}: a day or price is not a number ({error}).") from None
-    if not np.array_equal(days, np.arange(len(days))):
-        raise InputError(f"curve file {path}: days must be 0, 1, ..., T-1 in order.")
-    return prices
-
-
-def sample_facility() -> dict:
-    """The built-in sample facility (1 million MMBtu, concave ratchets)."""
-    return load_facility(files("finance") / "data" / "sample_facility.json")
-
-
-def sample_curve() -> np.ndarray:
-    """The built-in sample 365-day seasonal forward curve [$/MMBtu], starting 1 April."""
-    return load_curve(files("finance") / "data" / "sample_curve.csv")

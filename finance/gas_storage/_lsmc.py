@@ -33,7 +33,7 @@ from snapo_ode import InputError, Scene, check_range, time_function
 from ._inputs import DAYS_PER_YEAR, StorageInputs
 from ._lp import solve_intrinsic
 from ._model import GAS_EFFECTS, Schedule, kept_fraction, rate_fraction
-from ._study import standard_error
+from ._results import standard_error
 
 
 class InventoryGrid(NamedTuple):

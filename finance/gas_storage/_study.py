@@ -10,11 +10,12 @@ import jax.numpy as jnp
 import numpy as np
 
 import snapo_ode
-from snapo_ode import InputError, MLPPolicy, time_function
+from snapo_ode import check_count, time_function
 
 from ._inputs import StorageInputs
 from ._lp import solve_intrinsic
 from ._model import deterministic_scene, expected_value, make_policy, simulate, stochastic_scene
+from ._results import StorageStudy, standard_error
 
 
 @dataclass(frozen=True)
@@ -41,13 +42,12 @@ class StudySettings:
     progress: bool = True
 
     def __post_init__(self):
-        snapo_ode.check_range("paths", self.paths, 2, 10_000_000)
-        snapo_ode.check_range("train_paths", self.train_paths, 1, 10_000_000)
-        snapo_ode.check_range("train_steps", self.train_steps, 1, 10_000_000)
+        check_count("paths", self.paths, 2, 10_000_000)
+        check_count("train_paths", self.train_paths, 1, 10_000_000)
+        check_count("train_steps", self.train_steps, 1, 10_000_000)
         snapo_ode.check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         snapo_ode.check_range("sharpness", self.sharpness, 0.0, 1e8, low_open=True)
-        if self.repeats < 1:
-            raise InputError(f"repeats = {self.repeats!r} must be at least 1.")
+        check_count("repeats", self.repeats)
 
 
 def constraint_violation(schedule, inputs: StorageInputs, kept: float) -> float:
@@ -65,11 +65,6 @@ def constraint_violation(schedule, inputs: StorageInputs, kept: float) -> float:
         float(inputs.terminal_inventory_min) - inventory[..., -1:],
     ]
     return max(0.0, max(float(np.max(v)) for v in violations))
-
-
-def standard_error(values) -> float:
-    values = np.asarray(values)
-    return float(np.std(values, ddof=1) / np.sqrt(values.size)) if values.size > 1 else 0.0
 
 
 def named_sensitivities(gradient: StorageInputs) -> dict[str, float]:
@@ -95,9 +90,10 @@ def evaluation_shocks(settings: StudySettings, n_days: int) -> jax.Array:
     return jax.random.normal(eval_key, (settings.paths, n_days))
 
 
-def run_study(inputs: StorageInputs, settings: StudySettings) -> tuple[dict, MLPPolicy]:
-    """Train, evaluate, compare with the LP, and compute sensitivities. Returns the JSON-ready
-    result (keys documented in docs/gas_storage.md) and the trained policy."""
+def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
+    """Train, evaluate, compare with the LP, and compute sensitivities. Returns the typed result
+    (JSON keys documented in docs/gas_storage.md), which carries the trained policy, the
+    evaluation shocks and the hard schedule of every evaluation path."""
     scene = stochastic_scene() if settings.stochastic else deterministic_scene()
     key = jax.random.key(settings.seed)
     policy_key, train_key, _ = jax.random.split(key, 3)
@@ -141,84 +137,60 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> tuple[dict, MLP
         return expected_value(policy, inputs, scene, sharpness=sharpness, shocks=eval_shocks)
 
     @eqx.filter_jit
-    def value_and_gradient(policy, inputs):
-        return snapo_ode.value_and_sensitivities(lambda both: smooth_value(*both), (policy, inputs))
+    def value_and_gradient_of_both(both):
+        return snapo_ode.value_and_sensitivities(lambda both: smooth_value(*both), both)
 
     forward_timing, _ = time_function(smooth_value, policy, inputs, repeats=settings.repeats)
-    gradient_timing, (value, (_, gradient)) = time_function(value_and_gradient, policy, inputs,
+    gradient_timing, (value, (_, gradient)) = time_function(value_and_gradient_of_both, (policy, inputs),
                                                             repeats=settings.repeats)
     deltas = np.asarray(gradient.forward_curve)
-    result = {
-        "mode": "stochastic" if settings.stochastic else "deterministic",
-        "scene": sorted(scene.active),
-        "value_hard": float(np.mean(hard_run.value)),
-        "value_smooth": float(value),
-        "smoothing_gap": float(value) - float(np.mean(hard_run.value)),
-        "intrinsic_lp": intrinsic.value,
-        "intrinsic_method": intrinsic.method,
-        "hard_to_lp_ratio": float(np.mean(hard_run.value)) / intrinsic.value if intrinsic.value else float("nan"),
-        "max_constraint_violation": constraint_violation(hard_run, inputs, kept),
-        "capacity": float(inputs.capacity),
-        "schedule": {
+    value_hard = float(np.mean(hard_run.value))
+    stochastic = {}
+    if settings.stochastic:
+        stochastic = dict(paths=settings.paths, train_paths=settings.train_paths, seed=settings.seed,
+                          value_hard_se=standard_error(hard_run.value), value_smooth_se=standard_error(smooth_run.value),
+                          evaluation="out of sample: fresh paths, not those trained on",
+                          schedule_note="schedule entries are means over the evaluation paths")
+    bump = None
+    if settings.bump:
+        # Bumps of the forward curve only, chunked to about 65,536 simulated paths a batch; the
+        # adjoint is the one reverse pass above, with respect to everything.
+        paths = settings.paths if settings.stochastic else 1
+        batch_size = max(1, 65_536 // paths)
+        bump = snapo_ode.compare_with_bumps(
+            lambda both: smooth_value(*both), (policy, inputs), select=lambda both: both[1].forward_curve,
+            adjoint_fn=value_and_gradient_of_both, batch_size=batch_size if batch_size < 2 * deltas.size else None,
+            floor=1e-3, repeats=settings.repeats, bump_repeats=1, sequential=True)
+    return StorageStudy(
+        mode="stochastic" if settings.stochastic else "deterministic",
+        scene=sorted(scene.active),
+        value_hard=value_hard,
+        value_smooth=float(value),
+        smoothing_gap=float(value) - value_hard,
+        intrinsic_lp=intrinsic.value,
+        intrinsic_method=intrinsic.method,
+        hard_to_lp_ratio=value_hard / intrinsic.value if intrinsic.value else None,
+        max_constraint_violation=constraint_violation(hard_run, inputs, kept),
+        capacity=float(inputs.capacity),
+        schedule={
             "injection": np.asarray(hard_run.injection).reshape(-1, inputs.n_days).mean(0).tolist(),
             "withdrawal": np.asarray(hard_run.withdrawal).reshape(-1, inputs.n_days).mean(0).tolist(),
             "inventory": np.asarray(hard_run.inventory).reshape(-1, inputs.n_days + 1).mean(0).tolist(),
         },
-        "deltas": deltas.tolist(),
-        "lp_envelope_deltas": intrinsic.deltas.tolist(),
-        "parameter_sensitivities": named_sensitivities(gradient),
-        "train_seconds": trained.seconds,
-        "train_wall_seconds": train_wall,
-        "train_steps": trained.steps_run,
-        "compile_seconds": trained.compile_seconds + forward_timing.compile_seconds + gradient_timing.compile_seconds,
-        "compile_breakdown": {
-            "train_step": trained.compile_seconds,
-            "forward": forward_timing.compile_seconds,
-            "gradient": gradient_timing.compile_seconds,
-        },
-        "forward_seconds": forward_timing.median_seconds,
-        "gradient_seconds": gradient_timing.median_seconds,
-        "gradient_forward_ratio": gradient_timing.median_seconds / forward_timing.median_seconds,
-        "training_history": {"loss": trained.history["loss"], "value": trained.history["value"]},
-    }
-    if settings.stochastic:
-        result.update(paths=settings.paths, train_paths=settings.train_paths, seed=settings.seed,
-                      value_hard_se=standard_error(hard_run.value),
-                      value_smooth_se=standard_error(smooth_run.value),
-                      evaluation="out of sample: fresh paths, not those trained on",
-                      schedule_note="schedule entries are means over the evaluation paths")
-    if settings.bump:
-        result.update(bump_comparison(smooth_value, policy, inputs, deltas, repeats=settings.repeats,
-                                      paths=settings.paths if settings.stochastic else 1))
-    return result, policy
-
-
-def bump_comparison(smooth_value, policy, inputs: StorageInputs, deltas: np.ndarray, *, repeats: int,
-                    paths: int, relative_step: float = snapo_ode.DEFAULT_RELATIVE_STEP) -> dict:
-    """Central bump-and-revalue of the smooth value on every day's forward price, batched
-    (vmapped, in chunks of about 65,536 simulated paths to stay in memory) and sequential (a
-    Python loop of jitted revaluations, timed as 2T times the median revaluation), against the
-    adjoint deltas."""
-    batch_size = max(1, 65_536 // paths)
-    batch_size = batch_size if batch_size < 2 * deltas.size else None
-
-    def value_of_curve(curve):
-        return smooth_value(policy, eqx.tree_at(lambda i: i.forward_curve, inputs, curve))
-
-    batched = jax.jit(lambda curve: snapo_ode.bump_and_revalue(value_of_curve, curve, relative_step=relative_step,
-                                                               batch_size=batch_size))
-    batched_timing, bumped = time_function(batched, inputs.forward_curve, repeats=1)
-    single_timing, _ = time_function(jax.jit(value_of_curve), inputs.forward_curve, repeats=repeats)
-    sequential = 2 * deltas.size * single_timing.median_seconds
-    return {
-        "bump_batched_seconds": batched_timing.median_seconds,
-        "bump_sequential_seconds": sequential,
-        "bump_seconds": min(batched_timing.median_seconds, sequential),
-        "bump_compile_seconds": batched_timing.compile_seconds,
-        # Per day, relative to that day's bumped delta, days below 1e-3 of the largest delta
-        # compared at that scale (a central difference cannot resolve them further).
-        "max_rel_diff": snapo_ode.max_relative_difference(deltas, np.asarray(bumped), floor=1e-3),
-        # Normwise: the largest difference over the largest delta.
-        "max_diff_over_max_delta": snapo_ode.max_relative_difference(deltas, np.asarray(bumped), floor=1.0),
-        "bump_relative_step": relative_step,
-    }
+        deltas=deltas.tolist(),
+        lp_envelope_deltas=intrinsic.deltas.tolist(),
+        parameter_sensitivities=named_sensitivities(gradient),
+        train_seconds=trained.seconds,
+        train_wall_seconds=train_wall,
+        train_steps=trained.steps_run,
+        compile_seconds=trained.compile_seconds + forward_timing.compile_seconds + gradient_timing.compile_seconds,
+        compile_breakdown={"train_step": trained.compile_seconds, "forward": forward_timing.compile_seconds,
+                           "gradient": gradient_timing.compile_seconds},
+        forward_seconds=forward_timing.median_seconds,
+        gradient_seconds=gradient_timing.median_seconds,
+        gradient_forward_ratio=gradient_timing.median_seconds / forward_timing.median_seconds,
+        training_history={"loss": trained.history["loss"], "value": trained.history["value"]},
+        policy=policy, inputs=inputs, scene_effects=scene, evaluation_shocks=eval_shocks, hard=hard_run,
+        intrinsic=intrinsic, bump=bump, bump_relative_step=snapo_ode.DEFAULT_RELATIVE_STEP if bump else None,
+        **stochastic,
+    )

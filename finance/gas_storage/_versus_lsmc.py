@@ -7,48 +7,41 @@ import numpy as np
 
 from ._inputs import StorageInputs
 from ._lsmc import perfect_foresight, value_lsmc
-from ._model import simulate, spot_prices, stochastic_scene
-from ._study import StudySettings, evaluation_shocks, run_study, standard_error
+from ._model import spot_prices, stochastic_scene
+from ._results import LSMCComparison, standard_error
+from ._study import StudySettings, run_study
 
 LSMC_KEY = 7  # folded into the seed: the LSMC fitting paths are neither SNAPO's nor the evaluation's
 
 
-def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: int = 101, degree: int = 3,
-                      foresight_paths: int = 256) -> tuple[dict, object]:
-    """Run the SNAPO study (`run_study`, stochastic) and value the contract by LSMC with
-    regressions fitted on `settings.paths` paths of their own; evaluate both decision rules on
-    the study's evaluation paths, and the perfect-foresight LP on the first `foresight_paths`.
+def lsmc_fit_shocks(settings: StudySettings, n_days: int) -> jax.Array:
+    """The normal shocks of LSMC's fitting paths, shape (paths, T): neither SNAPO's training paths
+    nor the evaluation paths."""
+    return jax.random.normal(jax.random.fold_in(jax.random.key(settings.seed), LSMC_KEY), (settings.paths, n_days))
 
-    Returns the study's result extended with `lsmc_in_sample, lsmc_out_of_sample, lsmc_se,
-    snapo_out_of_sample, snapo_se, snapo_minus_lsmc, snapo_minus_lsmc_se` (paired, same paths),
-    `perfect_foresight, perfect_foresight_se, perfect_foresight_paths` [$], and timings
-    `lsmc_fit_seconds` (the valuation), `lsmc_eval_seconds`, `lsmc_compile_seconds`,
-    `snapo_seconds` (training after compile + one reverse pass for every delta); and the policy.
-    """
+
+def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: int = 101, degree: int = 3,
+                      foresight_paths: int = 256) -> LSMCComparison:
+    """Run the SNAPO study (`run_study`, stochastic) and value the contract by LSMC with
+    regressions fitted on `settings.paths` paths of their own; evaluate LSMC's decision rule on the
+    study's evaluation paths (SNAPO's hard schedule on them comes with the study), and the
+    perfect-foresight LP on the first `foresight_paths` of them."""
     if not settings.stochastic:
         raise ValueError("the LSMC comparison needs StudySettings(stochastic=True)")
-    result, policy = run_study(inputs, settings)
+    study = run_study(inputs, settings)
     scene = stochastic_scene()
-    eval_shocks = evaluation_shocks(settings, inputs.n_days)
-    eval_prices, _ = spot_prices(inputs, eval_shocks)
-    fit_key = jax.random.fold_in(jax.random.key(settings.seed), LSMC_KEY)
-    fit_prices, _ = spot_prices(inputs, jax.random.normal(fit_key, (settings.paths, inputs.n_days)))
+    eval_prices, _ = spot_prices(inputs, study.evaluation_shocks)
+    fit_prices, _ = spot_prices(inputs, lsmc_fit_shocks(settings, inputs.n_days))
     lsmc = value_lsmc(inputs, scene, fit_prices, eval_prices, nodes=nodes, degree=degree)
-    lsmc_schedule = lsmc.pop("schedule")
-    snapo_values = np.asarray(simulate(policy, inputs, scene, sharpness=None, shocks=eval_shocks).value)
-    difference = snapo_values - np.asarray(lsmc_schedule.value)
+    schedule = lsmc.pop("schedule")
+    snapo_values = np.asarray(study.hard.value)
+    difference = snapo_values - np.asarray(schedule.value)
     subset = min(foresight_paths, settings.paths)
     foresight = perfect_foresight(inputs, scene, eval_prices[:subset], progress=settings.progress)
-    result.update(lsmc)
-    result.update(
-        snapo_out_of_sample=float(snapo_values.mean()),
-        snapo_se=standard_error(snapo_values),
-        snapo_minus_lsmc=float(difference.mean()),
-        snapo_minus_lsmc_se=standard_error(difference),
-        perfect_foresight=float(foresight.mean()),
-        perfect_foresight_se=standard_error(foresight),
-        perfect_foresight_paths=subset,
-        snapo_seconds=result["train_seconds"] + result["gradient_seconds"],
-        lsmc_inventory_mean=np.asarray(lsmc_schedule.inventory).mean(0).tolist(),
-    )
-    return result, policy
+    return LSMCComparison(
+        study=study, **lsmc,
+        snapo_out_of_sample=float(snapo_values.mean()), snapo_se=standard_error(snapo_values),
+        snapo_minus_lsmc=float(difference.mean()), snapo_minus_lsmc_se=standard_error(difference),
+        perfect_foresight=float(foresight.mean()), perfect_foresight_se=standard_error(foresight),
+        perfect_foresight_paths=subset, snapo_seconds=study.train_seconds + study.gradient_seconds,
+        lsmc_inventory_mean=np.asarray(schedule.inventory).mean(0).tolist(), lsmc_schedule=schedule)
