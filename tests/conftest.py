@@ -1,5 +1,5 @@
-"""Shared test scaffolding: float64 on once for the whole session (importing snapo_ode does it),
-Agg plotting, and a key fixture."""
+"""Shared test scaffolding: float64 and the compilation cache on once for the whole session
+(`snapo_ode.configure()`), Agg plotting, and a key fixture."""
 
 import os
 
@@ -8,7 +8,9 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import jax  # noqa: E402
 import pytest  # noqa: E402
 
-import snapo_ode  # noqa: E402,F401  (turns on float64 and the compilation cache)
+import snapo_ode  # noqa: E402
+
+snapo_ode.configure()
 
 
 @pytest.fixture

@@ -3,8 +3,8 @@
 import csv
 import json
 
-from finance._alm_cli import register_alm
-from snapo_ode.cli import build
+from finance.alm._cli import register_alm
+from snapo_ode.cli import main
 
 KEYS = {"objective", "funding_ratio", "sensitivities", "adjoint_seconds", "bump_seconds",
         "forward_mode_seconds", "speedup", "max_rel_diff", "train_seconds", "compile_seconds",
@@ -12,9 +12,7 @@ KEYS = {"objective", "funding_ratio", "sensitivities", "adjoint_seconds", "bump_
 
 
 def _run(argv):
-    cli = build([register_alm])
-    args = cli.parser.parse_args(argv)
-    return args.handler(args)
+    return main(argv, plugins=[register_alm])
 
 
 def test_alm_writes_every_key_with_bump_and_training(tmp_path, capsys):
@@ -39,4 +37,5 @@ def test_bench_writes_the_scaling_table(tmp_path, capsys):
     assert [int(row["n_risk_factors"]) for row in rows] == [10, 20]
     assert all(float(row["max_rel_diff"]) <= 1e-6 for row in rows)
     assert (tmp_path / "alm_scaling.png").stat().st_size > 1000
+    assert json.loads((tmp_path / "alm_scaling.json").read_text())["rows"][0]["n_risk_factors"] == 10
     assert "| 20 |" in capsys.readouterr().out

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from finance import alm
-from finance._alm_cli import register_alm
+from finance.alm._cli import register_alm
 from snapo_ode import InputError
-from snapo_ode.cli import build
+from snapo_ode.cli import main
 
 
 @pytest.fixture(scope="module")
@@ -82,19 +82,17 @@ def test_too_few_risk_factors_and_bad_counts():
     with pytest.raises(InputError, match=r"risk_factors = 5; allowed: an integer >= 9"):
         alm.build_study(5)
     study = alm.build_study(40, horizon_months=6)
-    with pytest.raises(InputError, match=r"paths = 0; allowed: an integer >= 1"):
+    with pytest.raises(InputError, match=r"paths = 0; allowed: a whole number >= 1"):
         alm.scenarios(study, 0, None)
 
 
-def test_cli_reports_bad_input_without_compiling(tmp_path, monkeypatch):
+def test_cli_reports_bad_input_without_compiling(tmp_path, monkeypatch, capsys):
     import jax
 
     def no_compile(*args, **kwargs):
         raise AssertionError("nothing may be compiled before the inputs are checked")
 
     monkeypatch.setattr(jax, "jit", no_compile)
-    cli = build([register_alm])
-    args = cli.parser.parse_args(["alm", "--horizon-months", "0", "--json", str(tmp_path / "o.json")])
-    with pytest.raises(InputError, match="horizon_months = 0"):
-        args.handler(args)
+    assert main(["alm", "--horizon-months", "0", "--json", str(tmp_path / "o.json")], plugins=[register_alm]) == 2
+    assert "horizon_months = 0" in capsys.readouterr().err
     assert not (tmp_path / "o.json").exists()

@@ -48,6 +48,6 @@ def test_trained_policy_beats_the_fixed_mixes_out_of_sample():
     fresh = alm.scenarios(study, 1024, jax.random.key(12345))
     trained = alm.evaluate(study, policy, fresh)
     for name, mix in alm.baselines(study).items():
-        assert trained["objective"] > alm.evaluate(study, mix, fresh)["objective"], name
+        assert trained.objective > alm.evaluate(study, mix, fresh).objective, name
     # Smooth for training, hard for reporting: the gap is reported and small.
-    assert abs(trained["smoothing_gap"]) < 0.01
+    assert abs(trained.smoothing_gap) < 0.01

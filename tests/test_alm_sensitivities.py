@@ -37,12 +37,12 @@ def test_forward_mode_and_timed_bump_agree_with_the_adjoint():
     study = alm.build_study(40, horizon_months=6)
     fn, policy, shocks = _sensitivities(study, n_paths=8)
     measured = alm.measure_sensitivities(study, policy, shocks, repeats=1)
-    assert measured["max_rel_diff"] <= 1e-6
-    assert measured["max_rel_diff_forward_mode"] <= 1e-10
-    assert set(measured["sensitivities"]) == {
+    assert measured.max_rel_diff <= 1e-6
+    assert measured.max_rel_diff_forward_mode <= 1e-10
+    assert set(measured.sensitivities) == {
         name for group in study.layout.reported
         for name in alm.factor_names(study.layout, study.market)[group]}
-    assert measured["speedup"] == pytest.approx(measured["bump_seconds"] / measured["adjoint_seconds"])
+    assert measured.speedup == pytest.approx(measured.bump_seconds / measured.adjoint_seconds)
 
 
 def _flat_cash_fund(rate, horizon):

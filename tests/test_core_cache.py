@@ -1,4 +1,7 @@
-"""The persistent compilation cache: a second process compiles nothing it compiled before,
+"""Configuration: importing snapo_ode changes no JAX state and imports no JAX; `configure()`
+switches on float64 and the persistent compilation cache; entry points refuse float32.
+
+The persistent compilation cache: a second process compiles nothing it compiled before,
 including a checked stiff ODE solve and its derivative through the implicit solver, whose
 failure checks (ours, and lineax's in optimistix's implicit-function rule) `call_checked` traces
 as NaN marks rather than host callbacks.
@@ -21,7 +24,7 @@ jax.monitoring.register_event_duration_secs_listener(
 jax.monitoring.register_event_listener(
     lambda event, **kw: hits.append(event) if event.endswith("cache_hits") else None)
 import snapo_ode
-print(snapo_ode.CACHE_DIR)
+print(snapo_ode.configure())
 f = jax.jit(lambda x: jnp.sin(x) @ jnp.cos(x).T + 1.2345)
 f(jnp.ones((3, 3))).block_until_ready()
 jax.jit(jax.grad(lambda x: jnp.sum(jnp.tanh(x) ** 3)))(jnp.ones(4)).block_until_ready()
@@ -50,3 +53,20 @@ def test_second_process_compiles_nothing(tmp_path):
     assert first_dir == second_dir == str(tmp_path / "cache")
     assert first_compiles >= 3
     assert second_compiles == 0
+
+
+def test_import_changes_no_global_state_and_entry_points_refuse_float32():
+    script = """
+import sys
+import snapo_ode, finance.gas_storage, chemistry.pharma, snapo_ode.cli
+assert "jax" not in sys.modules, "importing the packages imported JAX"
+import jax
+assert not jax.config.jax_enable_x64
+from finance import gas_storage as gs
+try:
+    gs.make_inputs(gs.sample_facility(), gs.sample_curve())
+except snapo_ode.ConfigurationError as error:
+    print(error)
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    assert "need float64, which is off: call snapo_ode.configure()" in out.stdout

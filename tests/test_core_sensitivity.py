@@ -70,11 +70,51 @@ def test_max_relative_difference_uses_a_floor_for_near_zero_entries():
     assert snapo_ode.max_relative_difference([1.1, 0.0], [1.0, 0.0]) == pytest.approx(0.1)
 
 
-@pytest.mark.parametrize("batched", [True, False])
-def test_compare_with_bumps_reports_agreement_and_timings(batched):
-    comparison = snapo_ode.compare_with_bumps(objective, INPUTS, select=lambda p: p["a"], batched=batched,
-                                              repeats=1)
-    np.testing.assert_allclose(comparison.adjoint, analytic(INPUTS)["a"], rtol=1e-13)
-    assert comparison.max_rel_diff < 1e-8
-    assert comparison.value == pytest.approx(float(objective(INPUTS)), rel=1e-15)
+def test_compare_with_bumps_reports_agreement_and_timings():
+    comparison = snapo_ode.compare_with_bumps(objective, INPUTS, select=lambda p: p["a"], repeats=1,
+                                              sequential=True, forward_mode=True)
+    np.testing.assert_allclose(comparison.adjoint["a"], analytic(INPUTS)["a"], rtol=1e-13)
+    np.testing.assert_allclose(comparison.bumped, analytic(INPUTS)["a"], rtol=1e-8)
+    assert comparison.max_rel_diff < 1e-8 and comparison.forward_mode_agreement.max_rel_diff < 1e-13
+    assert float(comparison.value) == pytest.approx(float(objective(INPUTS)), rel=1e-15)
     assert comparison.speedup == pytest.approx(comparison.bump_seconds / comparison.adjoint_seconds)
+    assert comparison.sequential_seconds > 0 and comparison.forward_mode_seconds > 0
+
+
+def test_vector_outputs_richardson_differences_and_named_jacobian():
+    def outputs(inputs):
+        return jnp.stack([objective(inputs), jnp.sin(inputs["b"]) * 1e-6, jnp.sum(inputs["a"])])
+
+    comparison = snapo_ode.compare_with_bumps(outputs, INPUTS, mode="forward", richardson=True, relative_step=1e-3, step_floor=0.0,
+                                              zero=1e-12, repeats=1)
+    jac = snapo_ode.jacobian(outputs, INPUTS, output_names=("objective", "tiny", "sum"))
+    np.testing.assert_allclose(comparison.adjoint, jac.matrix, rtol=1e-13)
+    # Each row is compared at its own scale: the 1e-6 row is not swamped by the others.
+    assert comparison.max_rel_diff < 1e-9
+    assert comparison.agreement.at_structural_zeros < 1e-9
+    assert jac.input_names == tuple(f"a[{i}]" for i in range(7)) + ("b",)
+    assert jac.named(["b"])["tiny"]["b"] == pytest.approx(1e-6 * np.cos(1.5), rel=1e-13)
+    np.testing.assert_allclose(jac.columns(["a[0]", "b"])[0], [analytic(INPUTS)["a"][0], INPUTS["a"][0]], rtol=1e-13)
+    with pytest.raises(snapo_ode.InputError, match="no input named 'c'"):
+        jac.columns(["c"])
+
+
+def test_agreement_scales_and_structural_zeros():
+    estimate = np.array([[2.0, 0.0, 1e-3], [4.0, 1.0, 0.0]])
+    reference = np.array([[2.0, 1e-14, 1.1e-3], [4.0, 1.0, 3e-13]])
+    result = snapo_ode.agreement(estimate, reference, zero=1e-12)
+    assert result.max_rel_diff == pytest.approx(0.1 / 1.1, rel=1e-12)
+    assert result.at_structural_zeros == pytest.approx(3e-13 / 4.0, rel=1e-12)
+    scaled = snapo_ode.agreement(estimate, reference, scales=np.array([1.0, 1.0, 1e6]))
+    assert scaled.normwise == pytest.approx(100.0 / 1100.0, rel=1e-12)
+
+
+def test_input_names_follow_the_flat_order():
+    assert snapo_ode.input_names({"b": jnp.zeros((2, 1)), "a": jnp.array(1.0), "n": 3}) == ["a", "b[0][0]", "b[1][0]"]
+
+
+def test_check_count_refuses_fractions_and_bools():
+    assert snapo_ode.check_count("paths", 3) == 3
+    for bad in (0, 2.5, True, "4"):
+        with pytest.raises(snapo_ode.InputError, match="paths"):
+            snapo_ode.check_count("paths", bad)

@@ -10,10 +10,10 @@ import pytest
 
 import snapo_ode
 from finance import gas_storage as gs
-from finance.gas_storage._cases import BDJ_FEBRUARY, BDJ_JULY, BDJ_MEAN_REVERSION, BDJ_VOLATILITY, CASES
-from finance.gas_storage._lsmc import fit_lsmc, inventory_grid, perfect_foresight, run_lsmc_policy, value_lsmc
-from finance.gas_storage._model import spot_prices
-from finance.gas_storage._study import constraint_violation
+from finance.gas_storage import (
+    BDJ_MEAN_REVERSION, BDJ_VOLATILITY, CASES, constraint_violation, fit_lsmc, inventory_grid, perfect_foresight,
+    run_lsmc_policy, spot_prices, value_lsmc)
+from finance.gas_storage._cases import BDJ_FEBRUARY, BDJ_JULY
 
 
 def bdj_inputs(volatility=0.0):

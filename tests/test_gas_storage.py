@@ -10,8 +10,8 @@ import pytest
 
 import snapo_ode
 from finance import gas_storage as gs
-from finance.gas_storage._cases import CASES, FLAT_RATCHET as FLAT
-from finance.gas_storage._study import StudySettings, constraint_violation, run_study
+from finance.gas_storage import CASES, StudySettings, constraint_violation, run_study
+from finance.gas_storage._cases import FLAT_RATCHET as FLAT
 
 def simple_facility(**overrides):
     facility = dict(capacity=20.0, initial_inventory=0.0, terminal_inventory_min=0.0, max_injection=10.0,
@@ -66,10 +66,10 @@ TESTED_CASES = ["sample", "peaking_winter_spike", "depleted_field"]
 def test_trained_policy_reaches_98_percent_of_the_lp_and_is_feasible(case):
     facility, curve = CASES[case]()
     inputs = gs.make_inputs(facility, curve)
-    result, _ = run_study(inputs, StudySettings(progress=False, repeats=1))
-    assert result["hard_to_lp_ratio"] >= 0.98, result["hard_to_lp_ratio"]
-    assert result["value_hard"] <= result["intrinsic_lp"] * (1 + 1e-9)
-    assert result["max_constraint_violation"] <= 1e-6 * facility["capacity"]
+    result = run_study(inputs, StudySettings(progress=False, repeats=1))
+    assert result.hard_to_lp_ratio >= 0.98, result.hard_to_lp_ratio
+    assert result.value_hard <= result.intrinsic_lp * (1 + 1e-9)
+    assert result.max_constraint_violation <= 1e-6 * facility["capacity"]
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +111,7 @@ def test_stochastic_value_beats_intrinsic_and_deltas_match_bumps():
     inputs = gs.make_inputs(gs.sample_facility(), gs.sample_curve(), volatility=0.6, mean_reversion=3.0)
     settings = StudySettings(stochastic=True, paths=100, train_paths=64, train_steps=150, progress=False,
                              repeats=1, bump=True)
-    result, _ = run_study(inputs, settings)
+    result = run_study(inputs, settings).to_json()
     assert result["value_hard"] >= result["intrinsic_lp"] - 2 * result["value_hard_se"]
     # Same random numbers in both. The policy reacts to the spot level, so the value is not
     # linear in the curve and the central difference carries a truncation error of about 3e-4
@@ -170,6 +170,7 @@ def test_cli_gas_writes_the_documented_json(tmp_path):
     out = tmp_path / "gas.json"
     assert main(["gas", "--train-steps", "30", "--bump", "--json", str(out)]) == 0
     result = json.loads(out.read_text())
+    assert (tmp_path / "gas.policy.eqx").exists()
     for key in ("value_hard", "value_smooth", "intrinsic_lp", "schedule", "deltas", "parameter_sensitivities",
                 "train_seconds", "compile_seconds", "forward_seconds", "gradient_seconds", "bump_seconds",
                 "max_rel_diff"):

@@ -11,8 +11,8 @@ import pytest
 
 from chemistry import (
     IGNITION_CASES,
+    REACTOR_SOLVER,
     Mechanism,
-    SolverSettings,
     cantera_ignition,
     cantera_sensitivities,
     compare_sensitivities,
@@ -23,7 +23,7 @@ from chemistry import (
 )
 
 CANTERA_DATA = Path(cantera.__file__).parent / "data"
-BEFORE_IGNITION = SolverSettings(rtol=1e-10, atol=1e-14)
+BEFORE_IGNITION = REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14)
 
 
 @pytest.mark.parametrize("name", ["h2o2", "gri30"])

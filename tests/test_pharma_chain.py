@@ -5,6 +5,7 @@ import itertools
 import unittest.mock
 
 import cantera
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -14,14 +15,11 @@ import pytest
 import snapo_ode
 from chemistry import Mechanism
 from chemistry.pharma import (
-    CPP_NAMES, CPP_RANGES, DEFAULT_MECHANISM, MOLAR_MASSES, PHARMA_EFFECTS, ChainSolver, PharmaChain,
-    cqa_vector, default_physical_parameters, make_cpps, outside_par)
-from chemistry.pharma._crystallizer import Crystallizer, solubility
-from chemistry.pharma._dryer import Dryer, arrhenius
-from chemistry.pharma._profiles import LinearRamp
-from chemistry.pharma._verification import cantera_check, r1_trajectory, stiffness_ratio
+    CHAIN_SOLVER, CPP_NAMES, CPP_RANGES, DEFAULT_MECHANISM, MOLAR_MASSES, PHARMA_EFFECTS, Crystallizer, Dryer,
+    LinearRamp, PharmaChain, arrhenius, cantera_check, cqa_vector, default_physical_parameters, make_cpps,
+    outside_par, r1_trajectory, solubility, stiffness_ratio)
 
-TIGHT = ChainSolver(rtol=1e-12, atol=1e-14, max_steps=20000)
+TIGHT = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, max_steps=20000)
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +60,7 @@ def test_r1_is_stiff_and_stays_non_negative_at_every_corner(physical, corner):
 
 def test_dryer_matches_its_closed_form(physical):
     temperature = jnp.asarray(321.0)
-    out = Dryer(True)(jnp.asarray(0.3), jnp.asarray(0.99), temperature, physical, TIGHT)
+    out = Dryer(True).dry(jnp.asarray(0.3), jnp.asarray(0.99), temperature, physical, TIGHT)
     time = float(physical.drying_time)
     drying = float(arrhenius(physical.drying_rate, physical.drying_activation, temperature,
                              physical.dryer_ref_temperature))
@@ -92,7 +90,8 @@ def test_crystallizer_conserves_api_and_follows_van_t_hoff(physical):
 
 def _ops(scene, physical):
     chain = PharmaChain(scene=scene)
-    return snapo_ode.count_operations(lambda c: cqa_vector(chain.simulate(c, None, physical)), make_cpps())
+    return snapo_ode.count_operations(lambda c: cqa_vector(chain.simulate(chain.inputs(c, physical=physical))),
+                                      make_cpps())
 
 
 @pytest.mark.parametrize("effect", ["crystallization", "drying", "energy_balance", "impurity_incorporation",
@@ -108,18 +107,19 @@ def _spectral_radii(chain, cpps, physical) -> dict[bool, float]:
     the stiff (True) and the non-stiff (False) units: each unit's solve is recorded, then
     repeated with every step saved."""
     radii = {True: 0.0, False: 0.0}
-    solve = ChainSolver.solve
+    solve = snapo_ode.SolverSettings.solve
 
-    def recording(self, rhs, y0, args, *, stiff=True, steps=False):
-        solution = solve(self, rhs, y0, args, stiff=stiff, steps=True)
+    def recording(self, rhs, t0, t1, y0, args=None, *, stiff=True, saveat=None, **kwargs):
+        solution = solve(self, rhs, t0, t1, y0, args, stiff=stiff, saveat=diffrax.SaveAt(steps=True), **kwargs)
         finite = np.isfinite(np.asarray(solution.ts))
         for s, y in zip(np.asarray(solution.ts)[finite], np.asarray(solution.ys)[finite], strict=True):
             jacobian = np.asarray(jax.jacfwd(lambda y: rhs(s, y, args))(jnp.asarray(y)))
             radii[stiff] = max(radii[stiff], float(np.abs(np.linalg.eigvals(jacobian)).max()))
-        return solution if steps else solution.ys[int(solution.stats["num_accepted_steps"]) - 1]
+        last = int(solution.stats["num_accepted_steps"]) - 1
+        return solution if saveat is not None else eqx.tree_at(lambda s: s.ys, solution, solution.ys[last:last + 1])
 
-    with unittest.mock.patch.object(ChainSolver, "solve", recording):
-        chain.simulate(cpps, None, physical)
+    with unittest.mock.patch.object(snapo_ode.SolverSettings, "solve", recording):
+        chain.simulate(chain.inputs(cpps, physical=physical))
     return radii
 
 
@@ -136,7 +136,7 @@ def test_the_units_given_an_explicit_solver_are_not_stiff_at_any_corner(physical
 def test_side_reactions_off_removes_the_impurity_and_the_stiffness(physical):
     chain = PharmaChain(scene=PHARMA_EFFECTS.scene(without=["side_reactions"]))
     assert len(chain.active_reactions) == 2
-    result = chain.simulate(make_cpps(), None, physical)
+    result = chain.simulate(chain.inputs(make_cpps(), physical=physical))
     i, x = chain.species_index("I"), chain.species_index("X")
     assert float(result.r2.amounts[i]) == 0.0 and float(result.r2.amounts[x]) == 0.0
     assert float(cqa_vector(result)[1]) == 0.0
@@ -146,9 +146,9 @@ def test_nominal_chain_meets_the_specs_and_an_extreme_corner_does_not(physical):
     from chemistry.pharma import meets_specs
 
     chain = PharmaChain()
-    nominal = cqa_vector(chain.simulate(make_cpps(), None, physical))
-    hot = cqa_vector(chain.simulate(make_cpps(r1_temperature=323.15, r1_residence_time=40.0,
-                                              dryer_temperature=328.15), None, physical))
+    nominal = cqa_vector(chain.simulate(chain.inputs(make_cpps(), physical=physical)))
+    hot = cqa_vector(chain.simulate(chain.inputs(make_cpps(r1_temperature=323.15, r1_residence_time=40.0,
+                                                           dryer_temperature=328.15), physical=physical)))
     assert float(meets_specs(nominal)) == 1.0
     assert float(meets_specs(hot)) == 0.0
     assert float(hot[2]) > float(nominal[2])  # a hotter dryer degrades more
@@ -166,7 +166,7 @@ def test_bad_input_names_the_field(tmp_path):
     with pytest.raises(snapo_ode.InputError, match="unknown physical parameter"):
         default_physical_parameters(jacket_area=1.0)
     with pytest.raises(snapo_ode.InputError, match="rtol"):
-        ChainSolver(rtol=2.0)
+        CHAIN_SOLVER.replace(rtol=2.0)
     assert outside_par(make_cpps(cooling_rate=2.0))[0].startswith("cooling_rate = 2")
     assert outside_par(make_cpps()) == []
     text = DEFAULT_MECHANISM.read_text().replace("species: [A, B, P, I, X, D, S]", "species: [A, B, P, I, X, S]")
@@ -177,10 +177,10 @@ def test_bad_input_names_the_field(tmp_path):
 
 
 def test_a_failed_solve_raises_with_advice_either_way(physical):
-    args = (jnp.asarray(0.3), jnp.asarray(0.99), jnp.asarray(321.0), physical, ChainSolver(max_steps=2))
+    args = (jnp.asarray(0.3), jnp.asarray(0.99), jnp.asarray(321.0), physical, CHAIN_SOLVER.replace(max_steps=2))
     # Through call_checked: no callback in the program; the NaN mark is turned into the error on the host.
     with pytest.raises(snapo_ode.SolverFailed, match="max_steps"):
-        snapo_ode.call_checked(eqx.filter_jit(Dryer(True)), *args, what="the dryer")
+        snapo_ode.call_checked(eqx.filter_jit(Dryer(True).dry), *args, what="the dryer")
     # A plain call afterwards raises inside the program: it does not reuse the checked trace.
     with pytest.raises(Exception, match="max_steps"):
-        jax.block_until_ready(Dryer(True)(*args))
+        jax.block_until_ready(Dryer(True).dry(*args))

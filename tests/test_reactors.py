@@ -5,7 +5,6 @@ jacket, flow), effects absent from the jaxpr when left out, and the errors bad i
 from pathlib import Path
 
 import cantera
-import diffrax
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -13,7 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import snapo_ode
-from chemistry import GAS_CONSTANT, Mechanism, Reactor, SolverSettings, simulate
+from chemistry import GAS_CONSTANT, REACTOR_SOLVER, Mechanism, Reactor, SolverSettings, simulate
 
 H2O2 = Path(cantera.__file__).parent / "data" / "h2o2.yaml"
 RATE = 250.0  # [1/s]
@@ -61,7 +60,7 @@ def _solve(reactor, temperature, concentrations, times, **kwargs):
 
 def test_isothermal_batch_decays_exponentially_at_constant_volume_and_pressure(decay):
     concentrations = np.array([0.01, 0.0, 0.01])
-    settings = SolverSettings(rtol=1e-10, atol=1e-14)
+    settings = REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14)
     exact_a = 0.01 * np.exp(-RATE * TIMES)
     volume_run = _solve(Reactor(decay, "constant-volume"), 600.0, concentrations, TIMES, settings=settings)
     np.testing.assert_allclose(volume_run.concentrations[:, 0], exact_a, rtol=1e-7, atol=1e-16)
@@ -82,7 +81,7 @@ def test_isothermal_cstr_approaches_its_steady_state_as_the_closed_form(decay):
     feed = np.array([0.02, 0.0, 0.005])
     reactor = Reactor(decay, "constant-volume", ("flow",), residence_time=residence_time,
                       feed_concentrations=feed)
-    run = _solve(reactor, 600.0, np.array([0.0, 0.0, 0.01]), TIMES, settings=SolverSettings(rtol=1e-10, atol=1e-14))
+    run = _solve(reactor, 600.0, np.array([0.0, 0.0, 0.01]), TIMES, settings=REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14))
     rate = RATE + 1 / residence_time
     steady = feed[0] / residence_time / rate
     np.testing.assert_allclose(run.concentrations[:, 0], steady * (1 - np.exp(-rate * TIMES)), rtol=1e-7, atol=1e-15)
@@ -129,7 +128,7 @@ def test_energy_jacket_and_flow_match_scipy_radau_on_cantera_balances(h2o2, kind
                    feed_concentrations=feed, feed_temperature=900.0)
     reactor = Reactor(h2o2, kind, effects, **options)
     times = np.linspace(0.0, 4e-4, 9)
-    run = _solve(reactor, 950.0, concentrations, times, settings=SolverSettings(rtol=1e-10, atol=1e-14))
+    run = _solve(reactor, 950.0, concentrations, times, settings=REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14))
     rhs = _cantera_right_hand_side(kind, 1.0, cantera.one_atm, options["heat_transfer"], 1050.0,
                                    1 / 3e-4 if "flow" in effects else 0.0, feed, 900.0)
     reference = solve_ivp(rhs, (0.0, times[-1]), np.concatenate([[950.0], concentrations]), method="Radau",
@@ -158,7 +157,7 @@ def test_each_effect_left_out_is_absent_from_the_traced_computation(decay):
 
 
 def test_backsolve_adjoint_is_refused_before_any_compile(decay):
-    settings = SolverSettings(adjoint=diffrax.BacksolveAdjoint())
+    settings = REACTOR_SOLVER.replace(differentiation="backsolve")
     with pytest.raises(snapo_ode.InputError, match="BacksolveAdjoint"):
         simulate(Reactor(decay), 600.0, jnp.array([0.01, 0.0, 0.0]), TIMES, settings=settings)
 

@@ -1,0 +1,107 @@
+"""The architecture holds: the core imports no domain and the domains never import each other; no
+import cycles; pyflakes finds nothing; notebooks import no private module; no module grows past
+about 300 lines; and `snapo --help` imports no JAX."""
+
+import ast
+import json
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+PACKAGES = ("snapo_ode", "finance", "chemistry")
+MAX_LINES = 330
+
+
+def _modules() -> dict[str, pathlib.Path]:
+    modules = {}
+    for package in PACKAGES:
+        for path in (ROOT / package).rglob("*.py"):
+            name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+            modules[name.removesuffix(".__init__")] = path
+    return modules
+
+
+def _imports(name: str, path: pathlib.Path, modules) -> set[str]:
+    """The project modules `name` imports anywhere in its body (function-level imports too)."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(parts + ([node.module] if node.module else []))
+            candidates = [base] + [f"{base}.{alias.name}" for alias in node.names]
+        elif isinstance(node, ast.Import):
+            candidates = [alias.name for alias in node.names]
+        else:
+            continue
+        found.update(c for c in candidates if c in modules and c != name)
+    return found
+
+
+@pytest.fixture(scope="module")
+def graph():
+    modules = _modules()
+    return {name: _imports(name, path, modules) for name, path in modules.items()}
+
+
+def test_layers(graph):
+    for name, targets in graph.items():
+        top = name.split(".")[0]
+        for target in targets:
+            other = target.split(".")[0]
+            if top == "snapo_ode":
+                assert other == "snapo_ode", f"the core module {name} imports the domain module {target}"
+            else:
+                assert other in (top, "snapo_ode"), f"{name} imports {target}: domains never import each other"
+
+
+def test_no_import_cycles(graph):
+    state: dict[str, int] = {}
+
+    def visit(node, trail):
+        state[node] = 1
+        for target in graph[node]:
+            if state.get(target) == 1:
+                cycle = trail[trail.index(target):] + [target]
+                raise AssertionError(f"import cycle: {' -> '.join(cycle)}")
+            if target not in state:
+                visit(target, trail + [target])
+        state[node] = 2
+
+    for node in graph:
+        if node not in state:
+            visit(node, [node])
+
+
+def test_pyflakes_reports_nothing():
+    result = subprocess.run([sys.executable, "-m", "pyflakes", *PACKAGES, "tests"], cwd=ROOT, capture_output=True,
+                            text=True)
+    assert result.stdout + result.stderr == ""
+
+
+def test_notebooks_import_only_public_modules():
+    for path in (ROOT / "notebooks").glob("*.ipynb"):
+        for cell in json.loads(path.read_text())["cells"]:
+            if cell["cell_type"] != "code":
+                continue
+            for node in ast.walk(ast.parse("".join(cell["source"]))):
+                names = [node.module or ""] if isinstance(node, ast.ImportFrom) else (
+                    [alias.name for alias in node.names] if isinstance(node, ast.Import) else [])
+                for module in names:
+                    assert not any(part.startswith("_") for part in module.split(".")), f"{path.name}: {module}"
+
+
+def test_modules_stay_small():
+    long = {name: lines for name, path in _modules().items() if (lines := len(path.read_text().splitlines())) > MAX_LINES}
+    assert not long, f"split these modules by idea: {long}"
+
+
+def test_the_cli_and_the_packages_import_no_jax():
+    script = ("import sys\nfrom snapo_ode.cli import build\nbuild()\nimport finance.gas_storage, chemistry.pharma\n"
+              "assert 'jax' not in sys.modules, sorted(m for m in sys.modules if 'jax' in m)[:5]")
+    subprocess.run([sys.executable, "-c", script], cwd=ROOT, check=True)
