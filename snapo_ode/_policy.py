@@ -81,12 +81,17 @@ class MLPPolicy(eqx.Module):
         return low + (high - low) * jax.nn.sigmoid(raw)
 
 
-def save_policy(path: str | os.PathLike, policy: MLPPolicy) -> None:
-    """Save a policy atomically: a JSON header with its shape, then equinox-serialised leaves."""
+def policy_bytes(policy: MLPPolicy) -> bytes:
+    """A policy as bytes: a JSON header with its shape, then equinox-serialised leaves (what
+    `save_policy` writes and `load_policy` reads)."""
     buffer = io.BytesIO()
     eqx.tree_serialise_leaves(buffer, policy)
-    header = json.dumps(policy.config).encode() + b"\n"
-    atomic_write_bytes(path, header + buffer.getvalue())
+    return json.dumps(policy.config).encode() + b"\n" + buffer.getvalue()
+
+
+def save_policy(path: str | os.PathLike, policy: MLPPolicy) -> None:
+    """Save a policy atomically (`policy_bytes`)."""
+    atomic_write_bytes(path, policy_bytes(policy))
 
 
 def load_policy(path: str | os.PathLike) -> MLPPolicy:

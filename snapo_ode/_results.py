@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ._io import atomic_write_json
+from ._io import atomic_write_json, json_bytes, publish, sha256
 
 
 def field(*, json: bool = True, **kwargs) -> Any:
@@ -67,6 +67,19 @@ class Result:
     def write_json(self, path: str | os.PathLike) -> pathlib.Path:
         """Write `to_json()` to `path` atomically (NaN and infinities are refused)."""
         return atomic_write_json(path, self.to_json())
+
+    def publish(self, path: str | os.PathLike, attachments: Mapping[str, bytes] | None = None
+                ) -> list[pathlib.Path]:
+        """Write the JSON to `path` and each attachment (suffix -> bytes, e.g. ".policy.eqx" ->
+        a trained policy) beside it as one set (`snapo_ode.publish`): everything is serialised
+        first, so a failure replaces nothing, and the JSON comes last, naming each attachment
+        and its SHA-256 under "attachments"."""
+        path = pathlib.Path(path)
+        files = {path.with_suffix(suffix): data for suffix, data in (attachments or {}).items()}
+        payload = self.to_json()
+        if files:
+            payload["attachments"] = {name.name: sha256(data) for name, data in files.items()}
+        return publish({**files, path: json_bytes(payload)})
 
 
 def _fields(result: Result) -> dict:

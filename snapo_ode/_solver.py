@@ -14,7 +14,7 @@ import optimistix as optx
 
 from ._ode import diffeqsolve_checked
 from ._rosenbrock import Rodas4
-from ._validation import check_choice, check_range
+from ._validation import check_choice, check_count, check_range
 
 SolverName = Literal["rodas4", "kvaerno5", "kvaerno4", "kvaerno3", "tsit5", "dopri5"]
 RootFinderName = Literal["newton", "chord"]
@@ -92,9 +92,9 @@ class SolverSettings(eqx.Module):
         check_choice("root_finder", self.root_finder, get_args(RootFinderName))
         check_choice("differentiation", self.differentiation, get_args(Differentiation))
         check_range("kappa", self.kappa, 0.0, 1.0, low_open=True)
-        check_range("max_steps", self.max_steps, 1)
+        check_count("max_steps", self.max_steps, 1)
         if self.checkpoints is not None:
-            check_range("checkpoints", self.checkpoints, 1)
+            check_count("checkpoints", self.checkpoints, 1)
 
     def replace(self, **changes) -> "SolverSettings":
         """A copy with `changes` (validated again)."""

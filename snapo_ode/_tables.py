@@ -8,7 +8,7 @@ import pathlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import NamedTuple
 
-from ._io import atomic_write_json, atomic_write_text
+from ._io import json_bytes, publish
 from ._results import jsonable
 
 
@@ -36,11 +36,12 @@ def format_table(rows: Sequence[Mapping], columns: Sequence[Column]) -> str:
     return "\n".join(lines)
 
 
-def write_table(out: str | os.PathLike, name: str, rows: Sequence[Mapping], extra: Mapping | None = None
-                ) -> tuple[pathlib.Path, pathlib.Path]:
+def write_table(out: str | os.PathLike, name: str, rows: Sequence[Mapping], extra: Mapping | None = None,
+                files: Mapping[str, bytes] | None = None) -> list[pathlib.Path]:
     """Write `rows` as `out/name.csv` (the union of the rows' keys as columns, in first-seen
-    order; values quoted by the `csv` module) and `{"rows": rows, **extra}` as `out/name.json`,
-    each atomically. Returns both paths."""
+    order; values quoted by the `csv` module), any other `files` (name -> bytes, e.g. a plot) and
+    `{"rows": rows, **extra}` as `out/name.json`, as one set (`snapo_ode.publish`, the JSON last).
+    Returns the paths, the CSV first and the JSON last."""
     out = pathlib.Path(out)
     columns = list(dict.fromkeys(key for row in rows for key in row))
     buffer = io.StringIO()
@@ -48,6 +49,6 @@ def write_table(out: str | os.PathLike, name: str, rows: Sequence[Mapping], extr
     writer.writeheader()
     for row in rows:
         writer.writerow({key: jsonable(row.get(key)) for key in columns})
-    csv_path = atomic_write_text(out / f"{name}.csv", buffer.getvalue())
-    json_path = atomic_write_json(out / f"{name}.json", jsonable({"rows": list(rows), **(extra or {})}))
-    return csv_path, json_path
+    return publish({out / f"{name}.csv": buffer.getvalue().encode("utf-8"),
+                    **{out / file: data for file, data in (files or {}).items()},
+                    out / f"{name}.json": json_bytes(jsonable({"rows": list(rows), **(extra or {})}))})

@@ -21,9 +21,17 @@ def _show(value) -> str:
     return np.array2string(array, threshold=8, precision=6)
 
 
+def _shorten(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def check_finite(field: str, value) -> np.ndarray:
     """Raise unless every entry of `value` is a finite number; returns it as a float64 array."""
-    array = np.asarray(value, dtype=np.float64)
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{field} = {_shorten(value)} is not a number (or a regular array of numbers).") from None
     bad = ~np.isfinite(array)
     if bad.any():
         where = np.argwhere(bad)[0]
@@ -60,6 +68,15 @@ def check_range(
             f"{field}{index} = {_show(array[tuple(where)])} is outside the allowed range {interval}."
         )
     return array
+
+
+def check_scalar(field: str, value, low: float = -math.inf, high: float = math.inf, *, low_open: bool = False,
+                 high_open: bool = False) -> float:
+    """`check_range` for one number: also raise when `value` is an array of several; returns a float."""
+    array = check_range(field, value, low, high, low_open=low_open, high_open=high_open)
+    if array.ndim != 0:
+        raise InputError(f"{field} = {_shorten(value)} must be a single number; got shape {array.shape}.")
+    return float(array)
 
 
 def check_choice(field: str, value: str, allowed: Sequence[str]) -> str:

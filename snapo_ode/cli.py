@@ -15,6 +15,8 @@ Every verb, bench and report gets the same options from the core:
 - `--seed N`: the random seed (default 0).
 - `--debug`: a traceback instead of the one-line error.
 
+Verbs that train also get `--checkpoint` and `--resume` (`add_training_options`).
+
 Exit codes: 0 success; 2 a user mistake (`InputError`: a one-line `snapo: error: ...` naming
 the field, the value and what is allowed); 3 a failed solve (`SolverFailed`, with advice).
 Heavy imports (JAX, the models) happen inside the handlers, so `snapo --help` stays quick.
@@ -34,6 +36,22 @@ EXIT_INPUT_ERROR = 2
 EXIT_SOLVER_FAILED = 3
 
 
+def check_output_paths(args: argparse.Namespace) -> None:
+    """Refuse, before any computation, outputs that could not be written: `--json` naming a
+    directory or under an unwritable one, `--out` naming a file; for a report, an `--out` holding
+    files that no earlier report wrote (the report replaces its directory whole)."""
+    from ._io import check_replaceable_directory, check_writable_under
+
+    if args.out.exists() and not args.out.is_dir():
+        raise InputError(f"--out = {str(args.out)!r} is an existing file; give a directory.")
+    if args.json.is_dir():
+        raise InputError(f"--json = {str(args.json)!r} is a directory; give a file path.")
+    check_writable_under(args.json.resolve().parent, "--json")
+    check_writable_under(args.out.resolve(), "--out")
+    if getattr(args, "report_directory", False):
+        check_replaceable_directory(args.out, "--out")
+
+
 def add_common_options(parser: argparse.ArgumentParser, *, out: pathlib.Path, json_name: str) -> None:
     """Add `--out`, `--json`, `--no-progress`, `--seed` and `--debug` (see the module docstring)."""
     parser.add_argument("--out", type=pathlib.Path, default=out, metavar="DIR",
@@ -44,6 +62,17 @@ def add_common_options(parser: argparse.ArgumentParser, *, out: pathlib.Path, js
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--debug", action="store_true", help="show a traceback on error")
     parser.set_defaults(json_name=json_name)
+
+
+def add_training_options(parser: argparse.ArgumentParser) -> None:
+    """Add `--checkpoint PATH` (default: beside the JSON, `OUT.checkpoint.eqx`) and `--resume`
+    to a verb that trains: the whole training state is written there atomically as it goes and
+    when the run is interrupted, and `--resume` continues from it, giving the result an
+    uninterrupted run would have given."""
+    parser.add_argument("--checkpoint", type=pathlib.Path, metavar="PATH",
+                        help="training checkpoint (default: beside the JSON, NAME.checkpoint.eqx)")
+    parser.add_argument("--resume", action="store_true", help="continue an interrupted training from --checkpoint")
+    parser.set_defaults(trains=True)
 
 
 class CommandLine:
@@ -89,6 +118,7 @@ class CommandLine:
         """A report: `snapo report NAME ...`, written into `--out` (default `snapo-out/NAME-report`)."""
         parser = self._reports.add_parser(name, help=help, description=help)
         add_common_options(parser, out=DEFAULT_OUT / f"{name}-report", json_name="report.json")
+        parser.set_defaults(report_directory=True)
         return parser
 
 
@@ -108,6 +138,8 @@ def parse(cli: CommandLine, argv: Sequence[str] | None = None) -> argparse.Names
     if hasattr(args, "json_name"):
         args.json = args.json if args.json is not None else args.out / args.json_name
         args.progress = not args.no_progress
+    if getattr(args, "trains", False) and args.checkpoint is None:
+        args.checkpoint = args.json.with_suffix(".checkpoint.eqx")
     return args
 
 
@@ -123,18 +155,14 @@ def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandL
     from ._ode import SolverFailed
 
     try:
+        check_output_paths(args)
         configure()
         return int(handler(args) or 0)
-    except InputError as error:
+    except (InputError, SolverFailed) as error:
         if args.debug:
             raise
-        print(f"snapo: error: {error}", file=sys.stderr)
-        return EXIT_INPUT_ERROR
-    except SolverFailed as error:
-        if args.debug:
-            raise
-        print(f"snapo: error: {error}", file=sys.stderr)
-        return EXIT_SOLVER_FAILED
+        print(f"snapo: error: {' '.join(str(error).split())}", file=sys.stderr)  # one line
+        return EXIT_INPUT_ERROR if isinstance(error, InputError) else EXIT_SOLVER_FAILED
 
 
 if __name__ == "__main__":
