@@ -1,7 +1,8 @@
-"""Policy training: an optax loop with progress, early stopping, a NaN guard and atomic
-checkpoints."""
+"""Policy training: an optax loop with progress, early stopping, a NaN guard, and atomic
+checkpoints of the whole training state from which an interrupted run resumes exactly."""
 
 import io
+import json
 import math
 import os
 import pathlib
@@ -14,7 +15,7 @@ import jax
 import optax
 from tqdm.auto import tqdm
 
-from ._io import atomic_write_bytes, atomic_write_json
+from ._io import atomic_write_bytes
 from ._validation import InputError
 
 
@@ -55,17 +56,31 @@ def default_optimizer(learning_rate: float, steps: int, clip_norm: float) -> opt
     return optax.chain(optax.clip_by_global_norm(clip_norm), optax.adam(schedule))
 
 
-def save_checkpoint(path: str | os.PathLike, params, info: dict) -> None:
-    """Write `params` (equinox-serialised) and `info` (JSON, beside it) atomically."""
+def save_checkpoint(path: str | os.PathLike, best_params, info: dict, resume_state=None) -> None:
+    """Write a checkpoint atomically, as one file: `info` (a JSON line), the `best_params`
+    (equinox-serialised), and the `resume_state` (the current parameters and optimizer state, which
+    a resumed run continues from)."""
     buffer = io.BytesIO()
-    eqx.tree_serialise_leaves(buffer, params)
-    atomic_write_bytes(path, buffer.getvalue())
-    atomic_write_json(pathlib.Path(str(path) + ".json"), info)
+    eqx.tree_serialise_leaves(buffer, best_params)
+    if resume_state is not None:
+        eqx.tree_serialise_leaves(buffer, resume_state)
+    atomic_write_bytes(path, json.dumps(info, allow_nan=False).encode() + b"\n" + buffer.getvalue())
 
 
-def load_checkpoint(path: str | os.PathLike, like):
-    """Read parameters written by `save_checkpoint`, shaped like `like`."""
-    return eqx.tree_deserialise_leaves(path, like)
+def load_checkpoint(path: str | os.PathLike, like, resume_like=None):
+    """Read a checkpoint written by `save_checkpoint`: `(best_params, info)` shaped like `like`,
+    or with `resume_like` `(best_params, info, resume_state)`.
+
+    **Raises:** `InputError` naming the file when it is not such a checkpoint."""
+    try:
+        with open(path, "rb") as handle:
+            info = json.loads(handle.readline())
+            best = eqx.tree_deserialise_leaves(handle, like)
+            if resume_like is None:
+                return best, info
+            return best, info, eqx.tree_deserialise_leaves(handle, resume_like)
+    except (OSError, ValueError, RuntimeError, KeyError, TypeError) as error:
+        raise InputError(f"checkpoint {str(path)!r} cannot be read ({error}); delete it or drop --resume.") from None
 
 
 def train(
@@ -81,6 +96,8 @@ def train(
     min_delta: float = 0.0,
     checkpoint_path: str | os.PathLike | None = None,
     checkpoint_every: int = 100,
+    resume: bool = False,
+    callback: Callable | None = None,
     progress: bool = True,
     description: str = "training",
 ) -> TrainResult:
@@ -94,12 +111,18 @@ def train(
     - `optimizer`: any `optax.GradientTransformation` (default: `default_optimizer`).
     - `patience`, `min_delta`: stop when the loss has not improved by `min_delta` for
       `patience` steps; the best parameters are returned.
-    - `checkpoint_path`: where the best parameters are written atomically every
-      `checkpoint_every` steps and at the end.
+    - `checkpoint_path`: where the whole training state (parameters, optimizer state, best
+      parameters, history) is written atomically every `checkpoint_every` steps, when the run is
+      interrupted or fails, and at the end.
+    - `resume`: continue from `checkpoint_path` when it exists; the resumed run gives the same
+      result as one that was never interrupted (same steps, same keys).
+    - `callback(step, loss, metrics)`: called after every step (raising in it interrupts the run,
+      which still writes its checkpoint).
 
     The result is deterministic for given inputs and key.
 
-    **Raises:** `TrainingDiverged` naming the step whose loss was not finite.
+    **Raises:** `TrainingDiverged` naming the step whose loss was not finite; `InputError` for a
+    checkpoint of another run (a different `steps`) or an unreadable one.
     """
     if not isinstance(steps, int) or steps < 1:
         raise InputError(f"steps = {steps!r} must be a positive integer.")
@@ -107,6 +130,15 @@ def train(
         raise InputError(f"patience = {patience!r} must be a positive integer or None.")
     optimizer = optimizer or default_optimizer(learning_rate, steps, clip_norm)
     opt_state = optimizer.init(eqx.filter(params, eqx.is_inexact_array))
+    best_params = params
+    info = {"next_step": 0, "steps": steps, "history": {"loss": []}, "best_loss": None, "since_best": 0,
+            "stopped_early": False}
+    if resume and checkpoint_path is not None and pathlib.Path(checkpoint_path).exists():
+        best_params, saved, (params, opt_state) = load_checkpoint(checkpoint_path, params, (params, opt_state))
+        if saved.get("steps") != steps:
+            raise InputError(f"checkpoint {str(checkpoint_path)!r} is of a run with steps = {saved.get('steps')}, "
+                             f"not {steps}: resume with the same settings, or delete it.")
+        info = saved
 
     @eqx.filter_jit
     def update(params, opt_state, *key_args):
@@ -114,21 +146,28 @@ def train(
         updates, opt_state = optimizer.update(grads, opt_state, eqx.filter(params, eqx.is_inexact_array))
         return eqx.apply_updates(params, updates), opt_state, loss, metrics
 
-    history: dict[str, list[float]] = {"loss": []}
-    best_loss, best_params, since_best = math.inf, params, 0
-    stopped_early = False
+    history = info["history"]
+    best_loss = math.inf if info["best_loss"] is None else info["best_loss"]
+    since_best, stopped_early = info["since_best"], info["stopped_early"]
     step_times: list[float] = []
-    bar = tqdm(total=steps, desc=description, disable=not progress, leave=False)
+    first = info["next_step"]
+
+    def checkpoint(next_step: int) -> None:
+        if checkpoint_path is not None:
+            save_checkpoint(checkpoint_path, best_params, {
+                "next_step": next_step, "steps": steps, "history": history,
+                "best_loss": None if math.isinf(best_loss) else best_loss, "since_best": since_best,
+                "stopped_early": stopped_early}, (params, opt_state))
+
+    bar = tqdm(total=steps, initial=first, desc=description, disable=not progress, leave=False)
     try:
-        for step in range(steps):
+        for step in range(first, first if stopped_early else steps):
             key_args = () if key is None else (jax.random.fold_in(key, step),)
             start = time.perf_counter()
-            new_params, opt_state, loss, metrics = update(params, opt_state, *key_args)
+            new_params, new_opt_state, loss, metrics = update(params, opt_state, *key_args)
             loss = float(loss)
             step_times.append(time.perf_counter() - start)
             if not math.isfinite(loss):
-                if checkpoint_path is not None:
-                    save_checkpoint(checkpoint_path, best_params, {"step": step, "best_loss": best_loss})
                 raise TrainingDiverged(
                     f"{description}: the loss became {loss} at step {step} (last finite loss "
                     f"{history['loss'][-1] if history['loss'] else 'none'}); lower the learning "
@@ -143,22 +182,26 @@ def train(
                 best_loss, best_params, since_best = loss, params, 0
             else:
                 since_best += 1
-            params = new_params
+            params, opt_state = new_params, new_opt_state
             bar.update(1)
             postfix = {"loss": f"{loss:.6g}"}
             if "value" in metrics:
                 postfix["value"] = f"{float(metrics['value']):.6g}"
             bar.set_postfix(postfix, refresh=False)
-            if checkpoint_path is not None and (step + 1) % checkpoint_every == 0:
-                save_checkpoint(checkpoint_path, best_params, {"step": step, "best_loss": best_loss})
-            if patience is not None and since_best >= patience:
-                stopped_early = True
+            stopped_early = patience is not None and since_best >= patience
+            if (step + 1) % checkpoint_every == 0:
+                checkpoint(step + 1)
+            if callback is not None:
+                callback(step, loss, metrics)
+            if stopped_early:
                 break
+    except BaseException:
+        # Interrupted (Ctrl-C, a failed step, a diverged loss): keep every completed step.
+        checkpoint(len(history["loss"]))
+        raise
     finally:
         bar.close()
-    if checkpoint_path is not None:
-        save_checkpoint(checkpoint_path, best_params,
-                        {"step": len(history["loss"]) - 1, "best_loss": best_loss})
+    checkpoint(len(history["loss"]))
     typical = sorted(step_times[1:])[len(step_times[1:]) // 2] if len(step_times) > 1 else 0.0
     return TrainResult(
         params=best_params,
@@ -167,5 +210,5 @@ def train(
         stopped_early=stopped_early,
         best_loss=best_loss,
         seconds=sum(step_times[1:]),
-        compile_seconds=max(step_times[0] - typical, 0.0),
+        compile_seconds=max(step_times[0] - typical, 0.0) if step_times else 0.0,
     )

@@ -53,10 +53,37 @@ def test_checkpoint_round_trip(tmp_path):
     path = tmp_path / "ckpt.eqx"
     result = snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=30, checkpoint_path=path,
                              checkpoint_every=10, progress=False)
-    restored = snapo_ode.load_checkpoint(path, {"x": jnp.zeros(2)})
+    restored, info = snapo_ode.load_checkpoint(path, {"x": jnp.zeros(2)})
     np.testing.assert_array_equal(restored["x"], result.params["x"])
-    assert (tmp_path / "ckpt.eqx.json").exists()
+    assert info["next_step"] == 30 and len(info["history"]["loss"]) == 30
     assert not list(tmp_path.glob(".*tmp"))
+
+
+def noisy_loss(params, key):
+    """A stochastic objective, so that a resumed run must also continue the key sequence."""
+    target = jnp.array([1.0, -2.0]) + 0.3 * jax.random.normal(key, (2,))
+    return jnp.sum((params["x"] - target) ** 2), {"value": params["x"][0]}
+
+
+def test_an_interrupted_run_resumed_equals_an_uninterrupted_one(tmp_path):
+    settings = dict(steps=40, key=jax.random.key(3), progress=False, checkpoint_every=7)
+    whole = snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, **settings)
+
+    def interrupt(step, loss, metrics):
+        if step == 18:
+            raise KeyboardInterrupt
+
+    path = tmp_path / "run.ckpt"
+    with pytest.raises(KeyboardInterrupt):
+        snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, checkpoint_path=path, callback=interrupt, **settings)
+    _, info = snapo_ode.load_checkpoint(path, {"x": jnp.zeros(2)})
+    assert info["next_step"] == 19  # every completed step is kept, not only the last periodic checkpoint
+    resumed = snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, checkpoint_path=path, resume=True, **settings)
+    np.testing.assert_array_equal(resumed.params["x"], whole.params["x"])
+    assert resumed.history["loss"] == whole.history["loss"] and resumed.best_loss == whole.best_loss
+    with pytest.raises(snapo_ode.InputError, match="steps = 40"):
+        snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, checkpoint_path=path, resume=True,
+                        **{**settings, "steps": 50})
 
 
 def test_rejects_bad_step_count():
