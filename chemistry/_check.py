@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm import tqdm
 
-from snapo_ode import InputError, Result, check_range
+from snapo_ode import InputError, Result, check_count, check_range
 
 from ._crosscheck import compare_rates
 from ._ignition import IGNITION_CASES, IgnitionCase, cantera_ignition, initial_concentrations, solve_ignition
@@ -118,8 +118,8 @@ def check_against_cantera(path: str | Path, *, phase: str | None = None, n_state
     path = Path(path)
     if not path.is_file():
         raise InputError(f"mechanism file {str(path)!r} does not exist.")
-    check_range("n_states", n_states, 1)
-    check_range("top", top, 1)
+    check_count("n_states", n_states, 1)
+    check_count("top", top, 1)
     mechanism = Mechanism.from_yaml(path, phase)
     gas = mechanism.thermo_model == "ideal-gas"
     stages = tqdm(total=3, desc=f"kinetics check {path.name}", disable=not progress)

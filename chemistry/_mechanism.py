@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.custom_derivatives import SymbolicZero
 
-from snapo_ode import require_float64
+from snapo_ode import InputError, require_float64
 
 from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
 from ._reader import read_mechanism
@@ -71,7 +71,15 @@ class Mechanism(eqx.Module):
         unsupported reaction, and naming the field for unsupported thermo or units.
         """
         require_float64("kinetics mechanisms")
-        return read_mechanism(cls, path, phase)
+        try:
+            return read_mechanism(cls, path, phase)
+        except InputError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
+            # A structure the reader does not expect (a field of the wrong type, a missing key):
+            # name the file rather than show a traceback from deep inside the reader.
+            raise InputError(f"mechanism file {path}: malformed or unsupported content "
+                             f"({type(error).__name__}: {error}).") from error
 
     @property
     def n_species(self) -> int:

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
-from ruamel.yaml import YAML
+from ruamel.yaml import YAML, YAMLError
 
 from snapo_ode import InputError
 
@@ -21,8 +21,18 @@ _SUPPORTED_TYPES = ("elementary", "three-body", "falloff")
 def _load(path: Path):
     if not path.is_file():
         raise InputError(f"mechanism path {str(path)!r} is not a file.")
-    # The round-trip loader keeps line numbers, which unsupported-reaction errors cite.
-    return YAML(typ="rt").load(path.read_text())
+    # The round-trip loader keeps line numbers, which unsupported-reaction errors cite; reading
+    # from the open file makes its errors name the file.
+    try:
+        with open(path, encoding="utf-8") as handle:
+            document = YAML(typ="rt").load(handle)
+    except YAMLError as error:
+        raise InputError(f"mechanism file {path}: not valid YAML: {error}") from None
+    except UnicodeDecodeError as error:
+        raise InputError(f"mechanism file {path}: not UTF-8 text ({error}).") from None
+    if not isinstance(document, dict):
+        raise InputError(f"mechanism file {path}: expected a YAML mapping with a 'phases' section.")
+    return document
 
 
 def _where(path, node) -> str:

@@ -5,6 +5,8 @@ Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` sta
 
 import argparse
 
+from snapo_ode.cli import add_training_options
+
 from ._ranges import CPP_RANGES
 
 
@@ -55,17 +57,19 @@ def run_sensitivities(args) -> int:
 
 
 def run_train(args) -> int:
-    from snapo_ode import save_policy
+    from snapo_ode import policy_bytes
 
     from ._policy import train_profiles
 
     chain, cpps = chain_from_args(args)
     study = train_profiles(chain, cpps, steps=args.steps, learning_rate=args.learning_rate,
                            penalty_weight=args.penalty_weight, sharpness=args.sharpness, seed=args.seed,
-                           progress=args.progress)
-    save_policy(args.json.with_suffix(".r1.eqx"), study.profiles.r1_jacket.policy)
-    save_policy(args.json.with_suffix(".cooling.eqx"), study.profiles.cooling.policy)
-    return _finish(study, args.json)
+                           progress=args.progress, checkpoint_path=args.checkpoint, resume=args.resume)
+    written = study.publish(args.json, {".r1.eqx": policy_bytes(study.profiles.r1_jacket.policy),
+                                        ".cooling.eqx": policy_bytes(study.profiles.cooling.policy)})
+    print(study.summary())
+    print(f"written: {', '.join(map(str, written))}")
+    return 0
 
 
 def run_design_space(args) -> int:
@@ -114,6 +118,7 @@ def register_pharma(cli) -> None:
     train.add_argument("--learning-rate", type=float, default=3e-2)
     train.add_argument("--penalty-weight", type=float, default=1.0)
     train.add_argument("--sharpness", type=float, default=50.0, help="of the softplus spec penalty")
+    add_training_options(train)
     train.set_defaults(handler=run_train)
     space = cli.command("design-space", "P(all specs) over a grid of two CPPs under kinetic uncertainty: Monte "
                         "Carlo next to the linearised estimate", group=pharma)

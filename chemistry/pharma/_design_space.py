@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import Result, check_choice, check_range
+from snapo_ode import Result, check_choice, check_count, check_range
 
 from ._chain import PharmaChain
 from ._cqa import meets_specs
@@ -61,8 +61,8 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     """
     check_choice("x", x, CPP_NAMES)
     check_choice("y", y, tuple(n for n in CPP_NAMES if n != x))
-    check_range("points", points, 2, 101)
-    check_range("samples", samples, 2, 100_000)
+    check_count("points", points, 2, 101)
+    check_count("samples", samples, 2, 100_000)
     check_range("sigma", sigma, 0.0, 2.0, low_open=True)
     check_range("confidence", confidence, 0.0, 1.0, low_open=True, high_open=True)
     ranges = {r.name: r for r in CPP_RANGES}

@@ -128,14 +128,15 @@ class ProfileStudy(Result):
 
 def train_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters | None = None, *, steps: int = 60,
                    learning_rate: float = 3e-2, penalty_weight: float = 1.0, sharpness: float = 50.0, seed: int = 0,
-                   progress: bool = True) -> ProfileStudy:
+                   progress: bool = True, checkpoint_path=None, resume: bool = False) -> ProfileStudy:
     """Train both profiles for yield with the specs as smooth penalties; evaluate the baseline and
     the trained profiles hard."""
     physical = default_physical_parameters() if physical is None else physical
     profiles = make_profiles(physical, key=jax.random.key(seed))
     loss = profile_objective(chain, cpps, physical, penalty_weight=penalty_weight, sharpness=sharpness)
     trained = train(loss, profiles, steps=steps, learning_rate=learning_rate, progress=progress,
-                    description="pharma profiles")
+                    description="pharma profiles", checkpoint_path=checkpoint_path, checkpoint_every=10,
+                    resume=resume)
     settings = dict(penalty_weight=penalty_weight, sharpness=sharpness)
     samples = jnp.linspace(0.0, 1.0, 11)
     return ProfileStudy(

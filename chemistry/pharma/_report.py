@@ -16,7 +16,7 @@ from importlib.metadata import PackageNotFoundError, version
 
 import numpy as np
 
-from snapo_ode import atomic_write_bytes, atomic_write_json, atomic_write_text
+from snapo_ode import atomic_write_bytes, json_bytes, publish_directory
 
 from ._chain import DEFAULT_MECHANISM, PharmaChain
 from ._design_space import design_space
@@ -277,8 +277,9 @@ def _pdf(report: dict, tornado_figure, design_figure) -> bytes:
 
 
 def write_report(out: pathlib.Path, report: dict, json_path: pathlib.Path | None = None) -> list[pathlib.Path]:
-    """Write report.json (or `json_path`), sensitivities.csv, report.html and report.pdf under
-    `out`, each atomically."""
+    """Write report.json, sensitivities.csv, report.html and report.pdf as the directory `out`,
+    one set (`snapo_ode.publish_directory`: the old report or the new one, never a mix), and the
+    JSON also to `json_path` when it lies elsewhere."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -294,9 +295,13 @@ def write_report(out: pathlib.Path, report: dict, json_path: pathlib.Path | None
         for name, value in study["parameter_sensitivities"][cqa].items():
             writer.writerow([cqa, name, "parameter", repr(value),
                              repr(study["parameter_sensitivities_normalized"][cqa][name])])
-    return [
-        atomic_write_json(json_path or out / "report.json", report),
-        atomic_write_text(out / "sensitivities.csv", buffer.getvalue()),
-        atomic_write_text(out / "report.html", render_html(report, tornado_png, design_png)),
-        atomic_write_bytes(out / "report.pdf", _pdf(report, tornado, design)),
-    ]
+    report_json = json_bytes(report)
+    written = publish_directory(out, {
+        "report.json": report_json,
+        "sensitivities.csv": buffer.getvalue().encode("utf-8"),
+        "report.html": render_html(report, tornado_png, design_png).encode("utf-8"),
+        "report.pdf": _pdf(report, tornado, design),
+    })
+    if json_path is not None and pathlib.Path(json_path).resolve() != (pathlib.Path(out) / "report.json").resolve():
+        written.append(atomic_write_bytes(json_path, report_json))
+    return written

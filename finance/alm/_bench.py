@@ -8,12 +8,12 @@ import pathlib
 import jax
 from tqdm.auto import tqdm
 
-from snapo_ode import Column, atomic_write_bytes, check_count, write_table
+from snapo_ode import Column, check_count, write_table
 from snapo_ode import format_table as markdown_table
 
 from ._factors import layout_for
 from ._policy import NeuralRebalancing
-from ._study import build_study, measure_sensitivities, scenarios
+from ._study import build_study, check_size, measure_sensitivities, scenarios
 
 DEFAULT_COUNTS = (10, 50, 100, 500, 1000, 2000)
 COLUMNS = (
@@ -30,10 +30,10 @@ def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: i
     """One row per N in `counts`: median seconds of the three methods (bump and forward mode
     run once after the first call when N > 100, `repeats` times otherwise), the speedup of the
     adjoint over the bump, its target N/4, and the largest relative differences."""
-    for n in counts:
-        layout_for(n)
     check_count("paths", n_paths)
     check_count("repeats", repeats)
+    for n in counts:
+        check_size(layout_for(n), horizon_months, n_paths)
     rows = []
     for n in tqdm(counts, desc="bench alm", disable=not progress):
         study = build_study(n, horizon_months=horizon_months)
@@ -60,15 +60,13 @@ def format_table(rows: list[dict]) -> str:
     return markdown_table(rows, COLUMNS)
 
 
-def write_scaling(rows: list[dict], out_dir) -> tuple[pathlib.Path, pathlib.Path, pathlib.Path]:
-    """Write `alm_scaling.csv`, `alm_scaling.json` and `alm_scaling.png` into `out_dir`, atomically."""
+def write_scaling(rows: list[dict], out_dir) -> list[pathlib.Path]:
+    """Write `alm_scaling.csv`, `alm_scaling.png` and `alm_scaling.json` into `out_dir`, one set."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out_dir = pathlib.Path(out_dir)
-    csv_path, json_path = write_table(out_dir, "alm_scaling", rows)
     counts = [row["n_risk_factors"] for row in rows]
     figure, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
     for label, column in (("adjoint (one reverse pass)", "adjoint_seconds"),
@@ -87,5 +85,4 @@ def write_scaling(rows: list[dict], out_dir) -> tuple[pathlib.Path, pathlib.Path
     image = io.BytesIO()
     figure.savefig(image, format="png", dpi=120)
     plt.close(figure)
-    png_path = atomic_write_bytes(out_dir / "alm_scaling.png", image.getvalue())
-    return csv_path, json_path, png_path
+    return write_table(out_dir, "alm_scaling", rows, files={"alm_scaling.png": image.getvalue()})

@@ -3,7 +3,7 @@
 Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` stays quick.
 """
 
-from snapo_ode.cli import CommandLine
+from snapo_ode.cli import CommandLine, add_training_options
 
 
 def _alm(args) -> int:
@@ -11,7 +11,7 @@ def _alm(args) -> int:
 
     study = run_alm(args.risk_factors, n_paths=args.paths, horizon_months=args.horizon_months, bump=args.bump,
                     train_steps=args.train_steps, train_paths=args.train_paths, seed=args.seed,
-                    progress=args.progress)
+                    progress=args.progress, checkpoint_path=args.checkpoint, resume=args.resume)
     study.write_json(args.json)
     print(study.summary())
     print(f"written: {args.json}")
@@ -42,6 +42,7 @@ def register_alm(cli: CommandLine) -> None:
     parser.add_argument("--train-steps", type=int, default=0, metavar="S",
                         help="policy training steps (default 0: an untrained policy)")
     parser.add_argument("--train-paths", type=int, default=256, help="paths per training step")
+    add_training_options(parser)
     parser.set_defaults(handler=_alm)
 
     bench = cli.bench("alm", "sensitivity cost against the number of risk factors: adjoint vs "

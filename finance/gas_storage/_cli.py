@@ -6,6 +6,8 @@ Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` sta
 import argparse
 import pathlib
 
+from snapo_ode.cli import add_training_options
+
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     from ._cases import CASES
@@ -32,10 +34,16 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
 
 def study_from_args(args):
     """Build the inputs and settings from parsed arguments (validated before any compile)."""
+    from snapo_ode import InputError
+
     from ._cases import BDJ_MEAN_REVERSION, BDJ_VOLATILITY, CASES
     from ._files import load_curve, load_facility
     from ._inputs import make_inputs
     from ._study import StudySettings
+
+    if not args.stochastic and (args.volatility is not None or args.mean_reversion is not None):
+        raise InputError("--volatility and --mean-reversion set the stochastic spot: add --stochastic (without it "
+                         "the study is deterministic and they would be ignored).")
 
     sample_facility, sample_curve = CASES[args.sample]()
     facility = load_facility(args.facility) if args.facility else sample_facility
@@ -48,19 +56,19 @@ def study_from_args(args):
     inputs = make_inputs(facility, curve, volatility=volatility, mean_reversion=mean_reversion)
     settings = StudySettings(stochastic=args.stochastic, paths=args.paths, train_paths=args.train_paths,
                              seed=args.seed, train_steps=args.train_steps, sharpness=args.sharpness,
-                             split_actions=args.split_actions, bump=args.bump, progress=args.progress)
+                             split_actions=args.split_actions, bump=args.bump, progress=args.progress,
+                             checkpoint_path=args.checkpoint, resume=args.resume)
     return inputs, settings
 
 
 def _write(result, policy, json_path: pathlib.Path) -> int:
-    """Write the JSON and the trained policy beside it (`OUT.policy.eqx`), then the summary."""
-    from snapo_ode import save_policy
+    """Publish the JSON and the trained policy beside it (`OUT.policy.eqx`) as one set, then the
+    summary."""
+    from snapo_ode import policy_bytes
 
-    policy_path = json_path.with_suffix(".policy.eqx")
-    result.write_json(json_path)
-    save_policy(policy_path, policy)
+    written = result.publish(json_path, {".policy.eqx": policy_bytes(policy)})
     print(result.summary())
-    print(f"  written: {json_path}, {policy_path}")
+    print(f"  written: {', '.join(map(str, written))}")
     return 0
 
 
@@ -112,6 +120,7 @@ def register_gas(cli) -> None:
                       "and take every forward-curve delta from one reverse pass (the policy is saved beside "
                       "the JSON)")
     add_study_arguments(gas)
+    add_training_options(gas)
     gas.add_argument("--lsmc", action="store_true", help="also value by least-squares Monte Carlo and perfect "
                      "foresight on the same fresh paths (needs --stochastic)")
     gas.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC inventory grid levels")

@@ -2,19 +2,33 @@
 of each. Plain Python and NumPy, so the CLI can list and read them without importing JAX."""
 
 import csv
+import io
 import json
 import os
+import pathlib
 from importlib.resources import files
 
 import numpy as np
 
 from snapo_ode import InputError
 
-def load_facility(path: str | os.PathLike) -> dict:
-    """Read a facility JSON file."""
+def _read_text(path, what: str) -> str:
     try:
-        with open(path) as handle:
-            facility = json.load(handle)
+        return pathlib.Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{what} file {str(path)!r} does not exist.") from None
+    except IsADirectoryError:
+        raise InputError(f"{what} file {str(path)!r} is a directory.") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"{what} file {str(path)!r} cannot be read as text: {error}.") from None
+
+
+def load_facility(path: str | os.PathLike) -> dict:
+    """Read a facility JSON file (its fields are checked by `make_inputs`).
+
+    **Raises:** `InputError` naming the file for a missing file, invalid JSON or not an object."""
+    try:
+        facility = json.loads(_read_text(path, "facility"))
     except json.JSONDecodeError as error:
         raise InputError(f"facility file {path}: not valid JSON ({error}).") from None
     if not isinstance(facility, dict):
@@ -23,20 +37,30 @@ def load_facility(path: str | os.PathLike) -> dict:
 
 
 def load_curve(path: str | os.PathLike) -> np.ndarray:
-    """Read a forward-curve CSV with header `day,price` and days 0..T-1 in order; prices [$/MMBtu]."""
-    with open(path, newline="") as handle:
-        reader = csv.DictReader(handle)
-        if reader.fieldnames is None or [f.strip() for f in reader.fieldnames] != ["day", "price"]:
-            raise InputError(f"curve file {path}: the header must be 'day,price'; got {reader.fieldnames}.")
-        rows = list(reader)
-    try:
-        days = np.array([float(row["day"]) for row in rows])
-        prices = np.array([float(row["price"]) for row in rows])
-    except (TypeError, ValueError) as error:
-        raise InputError(f"curve file {path}: a day or price is not a number ({error}).") from None
-    if not np.array_equal(days, np.arange(len(days))):
-        raise InputError(f"curve file {path}: days must be 0, 1, ..., T-1 in order.")
-    return prices
+    """Read a forward-curve CSV with header `day,price` and days 0..T-1 in order; prices [$/MMBtu].
+
+    **Raises:** `InputError` naming the file, and the line, for a missing file, a wrong header, a
+    day or price that is not a number, or days out of order."""
+    reader = csv.reader(io.StringIO(_read_text(path, "curve")))
+    header = next(reader, None)
+    if header is None or [f.strip() for f in header] != ["day", "price"]:
+        raise InputError(f"curve file {path}: the header must be 'day,price'; got {header}.")
+    days, prices = [], []
+    for line, row in enumerate(reader, start=2):
+        if not row:
+            continue
+        if len(row) != 2:
+            raise InputError(f"curve file {path}, line {line}: expected 'day,price'; got {','.join(row)!r}.")
+        try:
+            days.append(float(row[0]))
+            prices.append(float(row[1]))
+        except ValueError:
+            raise InputError(f"curve file {path}, line {line}: day = {row[0]!r} or price = {row[1]!r} is not a "
+                             "number.") from None
+        if days[-1] != len(days) - 1:
+            raise InputError(f"curve file {path}, line {line}: day = {row[0]!r}; days must be 0, 1, ..., T-1 in "
+                             f"order, so this one must be {len(days) - 1}.")
+    return np.asarray(prices)
 
 
 def sample_facility() -> dict:

@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import InputError, check_finite, check_increasing, check_range, require_float64
+from snapo_ode import InputError, check_finite, check_increasing, check_range, check_scalar, require_float64
 
 DAYS_PER_YEAR = 365.0
 FACILITY_FIELDS = (
@@ -83,8 +83,11 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
                 mean_reversion: float = 0.0) -> StorageInputs:
     """Validate a facility dict (the JSON fields) and a forward curve, and build `StorageInputs`.
 
+    Prices may be negative (they occur in gas and power markets); the stochastic spot, which is
+    log-normal, needs positive ones (`check_positive_prices`).
+
     **Raises:** `InputError` naming the field, its value and the allowed range, for: a missing or
-    unknown field, negative or non-finite prices, capacity <= 0, an initial inventory outside
+    unknown field, non-finite prices, a curve that is zero on every day, capacity <= 0, an initial inventory outside
     [0, capacity], a malformed or non-increasing ratchet table, or a terminal requirement that
     cannot be reached at the maximum injection rate.
     """
@@ -96,22 +99,24 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
             f"facility fields missing: {missing or 'none'}; unknown: {unknown or 'none'}. "
             f"Expected exactly: {', '.join(FACILITY_FIELDS)}."
         )
-    curve = check_range("forward_curve (price)", forward_curve, 0.0)
+    curve = check_finite("forward_curve (price)", forward_curve)
     if curve.ndim != 1 or curve.size < 2:
         raise InputError(f"forward_curve must hold at least two daily prices; got shape {curve.shape}.")
-    capacity = float(check_range("capacity", facility["capacity"], 0.0, low_open=True))
-    initial = float(check_range("initial_inventory", facility["initial_inventory"], 0.0, capacity))
-    terminal = float(check_range("terminal_inventory_min", facility["terminal_inventory_min"], 0.0, capacity))
-    max_injection = float(check_range("max_injection", facility["max_injection"], 0.0))
-    max_withdrawal = float(check_range("max_withdrawal", facility["max_withdrawal"], 0.0))
-    fuel_loss = float(check_range("fuel_loss", facility["fuel_loss"], 0.0, 1.0, high_open=True))
+    if not np.any(curve):
+        raise InputError("forward_curve is zero on every day: nothing to value, and no price scale to train on.")
+    capacity = check_scalar("capacity", facility["capacity"], 0.0, low_open=True)
+    initial = check_scalar("initial_inventory", facility["initial_inventory"], 0.0, capacity)
+    terminal = check_scalar("terminal_inventory_min", facility["terminal_inventory_min"], 0.0, capacity)
+    max_injection = check_scalar("max_injection", facility["max_injection"], 0.0)
+    max_withdrawal = check_scalar("max_withdrawal", facility["max_withdrawal"], 0.0)
+    fuel_loss = check_scalar("fuel_loss", facility["fuel_loss"], 0.0, 1.0, high_open=True)
     injection_ratchet = _check_ratchet("injection_ratchet", facility["injection_ratchet"])
     withdrawal_ratchet = _check_ratchet("withdrawal_ratchet", facility["withdrawal_ratchet"])
-    injection_cost = float(check_range("injection_cost", facility["injection_cost"], 0.0))
-    withdrawal_cost = float(check_range("withdrawal_cost", facility["withdrawal_cost"], 0.0))
-    rate = float(check_range("rate", facility["rate"], -1.0, 1.0))
-    check_range("volatility", volatility, 0.0, 10.0)
-    check_range("mean_reversion", mean_reversion, 0.0, 1e4)
+    injection_cost = check_scalar("injection_cost", facility["injection_cost"], 0.0)
+    withdrawal_cost = check_scalar("withdrawal_cost", facility["withdrawal_cost"], 0.0)
+    rate = check_scalar("rate", facility["rate"], -1.0, 1.0)
+    check_scalar("volatility", volatility, 0.0, 10.0)
+    check_scalar("mean_reversion", mean_reversion, 0.0, 1e4)
     reachable = initial + (1 - fuel_loss) * max_injection * injection_ratchet[:, 1].max() * curve.size
     if terminal > min(reachable, capacity) + 1e-9 * capacity:
         raise InputError(
@@ -136,3 +141,15 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
         volatility=as_array(volatility),
         mean_reversion=as_array(mean_reversion),
     )
+
+
+def check_positive_prices(inputs: StorageInputs) -> None:
+    """Raise `InputError` unless every forward price is positive: the stochastic spot is
+    log-normal around the curve (spot_t = F_t exp(X_t - Var/2)), so a zero or negative F_t has no
+    such spot."""
+    curve = np.asarray(inputs.forward_curve)
+    if np.any(curve <= 0):
+        day = int(np.argmax(curve <= 0))
+        raise InputError(f"forward_curve[{day}] = {curve[day]:g}: the stochastic spot is log-normal around the "
+                         "forward curve (spot = F exp(X)), so every price must be positive; value a curve with "
+                         "zero or negative prices in the deterministic (intrinsic) model.")

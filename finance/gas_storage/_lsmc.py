@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
-from snapo_ode import InputError, Scene, check_range, time_function
+from snapo_ode import InputError, Scene, check_count, time_function
 
 from ._inputs import DAYS_PER_YEAR, StorageInputs
 from ._lp import solve_intrinsic
@@ -54,10 +54,7 @@ def inventory_grid(inputs: StorageInputs, scene: Scene, nodes: int) -> Inventory
     **Raises:** `InputError` for fewer than 2 nodes, or when the initial inventory is not a grid
     level (it must be a whole multiple of capacity / (nodes - 1)).
     """
-    check_range("nodes", nodes, 2, 100_000)
-    if int(nodes) != nodes:
-        raise InputError(f"nodes = {nodes!r} must be a whole number.")
-    nodes = int(nodes)
+    nodes = check_count("nodes", nodes, 2, 100_000)
     capacity = float(inputs.capacity)
     spacing = capacity / (nodes - 1)
     start = float(inputs.initial_inventory) / spacing
@@ -201,7 +198,7 @@ def value_lsmc(inputs: StorageInputs, scene: Scene, fit_prices, eval_prices, *, 
     `lsmc_fit_seconds, lsmc_eval_seconds, lsmc_compile_seconds`, `lsmc_nodes, lsmc_degree`, and
     under `"schedule"` the out-of-sample `Schedule`.
     """
-    check_range("degree", degree, 0, 12)
+    check_count("degree", degree, 0, 12)
     grid = inventory_grid(inputs, scene, nodes)
     fit_timing, fit = time_function(fit_lsmc, inputs, scene, grid, fit_prices, int(degree), repeats=1)
     eval_timing, schedule = time_function(run_lsmc_policy, fit, inputs, scene, grid, eval_prices, repeats=1)

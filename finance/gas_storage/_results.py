@@ -89,7 +89,8 @@ class StorageStudy(Result):
         }
 
     def to_json(self) -> dict:
-        return {**super().to_json(), **self.bump_fields()}
+        # hard_to_lp_ratio is always present: null when the LP is worth nothing.
+        return {**super().to_json(), "hard_to_lp_ratio": self.hard_to_lp_ratio, **self.bump_fields()}
 
     def summary(self) -> str:
         days = len(self.deltas)

@@ -1,6 +1,7 @@
 """One storage study end to end: train the policy smooth, evaluate it hard, solve the LP,
 and take every sensitivity from one reverse pass (optionally against bump-and-revalue)."""
 
+import pathlib
 import time
 from dataclasses import dataclass
 
@@ -12,7 +13,7 @@ import numpy as np
 import snapo_ode
 from snapo_ode import check_count, time_function
 
-from ._inputs import StorageInputs
+from ._inputs import StorageInputs, check_positive_prices
 from ._lp import solve_intrinsic
 from ._model import deterministic_scene, expected_value, make_policy, simulate, stochastic_scene
 from ._results import StorageStudy, standard_error
@@ -26,7 +27,8 @@ class StudySettings:
     `sharpness` (dimensionless smoothing sharpness; gaps are about log(2)/sharpness of a day's
     maximum flow); `split_actions` and `width` (of the policy, see `make_policy`); `bump` (also
     run central bump-and-revalue on the 365 deltas); `repeats` (timed runs per median);
-    `progress` (show a progress bar)."""
+    `progress` (show a progress bar); `checkpoint_path` and `resume` (of the training, see
+    `snapo_ode.train`)."""
 
     stochastic: bool = False
     paths: int = 1000
@@ -40,6 +42,8 @@ class StudySettings:
     bump: bool = False
     repeats: int = 5
     progress: bool = True
+    checkpoint_path: pathlib.Path | None = None
+    resume: bool = False
 
     def __post_init__(self):
         check_count("paths", self.paths, 2, 10_000_000)
@@ -48,6 +52,23 @@ class StudySettings:
         snapo_ode.check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         snapo_ode.check_range("sharpness", self.sharpness, 0.0, 1e8, low_open=True)
         check_count("repeats", self.repeats)
+
+
+def memory_estimate(n_days: int, settings: StudySettings) -> float:
+    """Peak bytes of a study: per simulated path and day about 16 float64 numbers live at once in
+    a reverse pass (shocks, prices, the factor, the carried state and the schedule); the batched
+    bumps simulate up to 65,536 paths at once; plus ~0.5 GiB for JAX itself."""
+    paths = max(settings.paths, settings.train_paths) if settings.stochastic else 1
+    if settings.bump:
+        paths = max(paths, min(65_536, 2 * n_days * paths))
+    return 0.5 * 1024**3 + 8.0 * 16 * paths * n_days
+
+
+def check_size(n_days: int, settings: StudySettings) -> None:
+    """Refuse, before any allocation, a study that would not fit in memory (`memory_estimate`)."""
+    snapo_ode.check_memory(f"the storage study with {settings.paths if settings.stochastic else 1} paths x "
+                           f"{n_days} days", memory_estimate(n_days, settings), "use fewer paths (--paths, "
+                           "--train-paths) or a shorter curve.")
 
 
 def constraint_violation(schedule, inputs: StorageInputs, kept: float) -> float:
@@ -94,6 +115,9 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
     """Train, evaluate, compare with the LP, and compute sensitivities. Returns the typed result
     (JSON keys documented in docs/gas_storage.md), which carries the trained policy, the
     evaluation shocks and the hard schedule of every evaluation path."""
+    if settings.stochastic:
+        check_positive_prices(inputs)
+    check_size(inputs.n_days, settings)
     scene = stochastic_scene() if settings.stochastic else deterministic_scene()
     key = jax.random.key(settings.seed)
     policy_key, train_key, _ = jax.random.split(key, 3)
@@ -105,7 +129,7 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
     policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale, split_actions=settings.split_actions,
                          width=settings.width)
-    scale = float(inputs.capacity * jnp.mean(inputs.forward_curve))
+    scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
     sharpness = settings.sharpness
 
     def loss(policy, *step_key):
@@ -118,7 +142,8 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
     start = time.perf_counter()
     trained = snapo_ode.train(loss, policy, steps=settings.train_steps, learning_rate=settings.learning_rate,
                               key=train_key if settings.stochastic else None,
-                              progress=settings.progress, description="training storage policy")
+                              progress=settings.progress, description="training storage policy",
+                              checkpoint_path=settings.checkpoint_path, checkpoint_every=50, resume=settings.resume)
     train_wall = time.perf_counter() - start
     policy = trained.params
 
