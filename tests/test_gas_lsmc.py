@@ -106,9 +106,9 @@ def test_split_policy_trades_bang_bang_when_hard_and_smoothly_when_training():
 
 
 @pytest.mark.parametrize("nodes, degree, message", [
-    (1, 3, r"nodes = 1.0 is outside the allowed range \[2, 100000\]"),
+    (1, 3, r"nodes = 1; allowed: a whole number in \[2, 100000\]"),
     (100, 3, r"initial_inventory = 100000 is not on the grid of nodes = 100"),
-    (101, -1, r"degree = -1.0 is outside the allowed range \[0, 12\]"),
+    (101, -1, r"degree = -1; allowed: a whole number in \[0, 12\]"),
 ])
 def test_lsmc_bad_input_names_the_field(nodes, degree, message):
     inputs = bdj_inputs(0.2)

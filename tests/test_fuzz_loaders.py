@@ -1,0 +1,85 @@
+"""Malformed inputs end in `InputError` (naming what is wrong) or in a correct load, never in
+another exception: random truncations, type swaps and extreme values fed to the facility JSON,
+forward-curve CSV and mechanism YAML loaders."""
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import snapo_ode
+from chemistry import MECHANISMS, Mechanism
+from finance import gas_storage as gs
+
+FACILITY = gs.sample_facility()
+CURVE_TEXT = "day,price\n" + "".join(f"{d},{p!r}\n" for d, p in enumerate(gs.sample_curve()[:40]))
+MECHANISM_TEXT = (MECHANISMS / "reaction_types.yaml").read_text()
+ODD_VALUES = st.sampled_from([None, "abc", "", [], [1.0, 2.0], {"a": 1}, True, -1.0, 0.0, 1e308, -1e308, 1e-308,
+                              float("inf"), [[0.0, 1.0]], [[0.0, 1.0], [0.5]], [[1.0, 1.0], [0.0, 1.0]]])
+FUZZ = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+
+
+def loads_or_input_error(load):
+    try:
+        return load()
+    except snapo_ode.InputError:
+        return None
+
+
+@FUZZ
+@given(field=st.sampled_from(sorted(FACILITY)), value=ODD_VALUES, drop=st.booleans())
+def test_facility_fields_of_any_type(field, value, drop):
+    facility = {k: v for k, v in FACILITY.items() if not (drop and k == field)} if drop else {**FACILITY, field: value}
+    inputs = loads_or_input_error(lambda: gs.make_inputs(facility, gs.sample_curve()))
+    if inputs is not None:  # a value that happens to be valid loads as it should
+        assert float(inputs.capacity) > 0 and np.all(np.isfinite(np.asarray(inputs.forward_curve)))
+
+
+@FUZZ
+@given(cut=st.integers(0, len(json.dumps(FACILITY))), junk=st.text(max_size=5))
+def test_truncated_facility_json(tmp_path, cut, junk):
+    path = tmp_path / "facility.json"
+    path.write_text(json.dumps(FACILITY)[:cut] + junk)
+    facility = loads_or_input_error(lambda: gs.load_facility(path))
+    if facility is not None:
+        loads_or_input_error(lambda: gs.make_inputs(facility, gs.sample_curve()))
+
+
+@FUZZ
+@given(cut=st.integers(0, len(CURVE_TEXT)), junk=st.text(max_size=8),
+       extreme=st.sampled_from(["nan", "inf", "-1e308", "1e400", "0x10", "", "3,4"]))
+def test_truncated_or_odd_curve_csv(tmp_path, cut, junk, extreme):
+    path = tmp_path / "curve.csv"
+    text = CURVE_TEXT[:cut] + junk
+    path.write_text(text.replace(",3.", f",{extreme}", 1) if extreme else text)
+    curve = loads_or_input_error(lambda: gs.load_curve(path))
+    if curve is not None:
+        loads_or_input_error(lambda: gs.make_inputs(FACILITY, curve))
+
+
+@pytest.fixture(scope="module")
+def mechanism_lines():
+    return MECHANISM_TEXT.splitlines(keepends=True)
+
+
+@FUZZ
+@given(data=st.data())
+def test_mutated_mechanism_yaml(tmp_path, mechanism_lines, data):
+    lines = list(mechanism_lines)
+    kind = data.draw(st.sampled_from(["truncate", "swap", "delete"]))
+    where = data.draw(st.integers(0, len(lines) - 1))
+    if kind == "truncate":
+        lines = lines[:where] + [lines[where][: data.draw(st.integers(0, len(lines[where])))]]
+    elif kind == "delete":
+        del lines[where]
+    elif ":" in lines[where]:
+        key = lines[where].split(":", 1)[0]
+        value = data.draw(st.sampled_from(["[]", "{}", "abc", "-1", "1e400", "null", "[1, 2, 3]", "{A: x}"]))
+        lines[where] = f"{key}: {value}\n"
+    path = tmp_path / "mechanism.yaml"
+    path.write_text("".join(lines))
+    mechanism = loads_or_input_error(lambda: Mechanism.from_yaml(path))
+    if mechanism is not None:
+        assert mechanism.n_species > 0
