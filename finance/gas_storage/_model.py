@@ -192,27 +192,43 @@ def simulate_path(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, prices
     return Schedule(value[-1], injection[1:], withdrawal[1:], inventory)
 
 
-def spot_factor(inputs: StorageInputs, shocks: jax.Array) -> jax.Array:
-    """The Ornstein-Uhlenbeck factor less half its variance, X_t - Var(X_t)/2, on daily steps
-    from X_0 = 0, for shocks of shape (paths, T). Exact discretisation; mean_reversion 0 is
-    Brownian motion."""
+class FactorTransition(NamedTuple):
+    """The exact daily step of the spot factor, as `spot_factor` takes it: `decay` a, `step_sd`
+    s (scalars) and `variance` v_t = Var(X_t), shape (T,)."""
+
+    decay: jax.Array
+    step_sd: jax.Array
+    variance: jax.Array
+
+
+def factor_transition(inputs: StorageInputs) -> FactorTransition:
+    """The exact daily step of the Ornstein-Uhlenbeck factor X (X_0 = 0): a = exp(-kappa dt),
+    s^2 = sigma^2 (1 - a^2) / (2 kappa) (sigma^2 dt at kappa = 0) and Var(X_t)."""
     dt = 1.0 / DAYS_PER_YEAR
     kappa, sigma = inputs.mean_reversion, inputs.volatility
     positive = kappa > 1e-12
     safe_kappa = jnp.where(positive, kappa, 1.0)
-    # Variance added by one step, and its limit dt as kappa -> 0 (double `where` keeps grads finite).
     step_variance = jnp.where(positive, -jnp.expm1(-2 * safe_kappa * dt) / (2 * safe_kappa), dt)
     decay = jnp.exp(-kappa * dt)
-    scale = sigma * jnp.sqrt(step_variance)
 
-    def advance(carry, shock):
-        x, variance = carry
-        return (decay * x + scale * shock, decay**2 * variance + sigma**2 * step_variance), x - variance / 2
+    def advance(variance, _):
+        return decay**2 * variance + sigma**2 * step_variance, variance
 
-    n_paths = shocks.shape[0]
-    start = (jnp.zeros(n_paths), jnp.zeros(()))
-    _, factor = jax.lax.scan(advance, start, shocks.T)
-    return factor.T
+    _, variance = jax.lax.scan(advance, jnp.zeros(()), None, length=inputs.n_days)
+    return FactorTransition(decay, sigma * jnp.sqrt(step_variance), variance)
+
+
+def spot_factor(inputs: StorageInputs, shocks: jax.Array) -> jax.Array:
+    """The Ornstein-Uhlenbeck factor less half its variance, X_t - Var(X_t)/2, on daily steps
+    from X_0 = 0, for shocks of shape (paths, T). Exact discretisation (`factor_transition`);
+    mean_reversion 0 is Brownian motion."""
+    transition = factor_transition(inputs)
+
+    def advance(x, shock):
+        return transition.decay * x + transition.step_sd * shock, x
+
+    _, factor = jax.lax.scan(advance, jnp.zeros(shocks.shape[0]), shocks.T)
+    return factor.T - transition.variance / 2
 
 
 def spot_prices(inputs: StorageInputs, shocks: jax.Array) -> tuple[jax.Array, jax.Array]:

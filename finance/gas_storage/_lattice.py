@@ -1,0 +1,169 @@
+"""A reference valuation for the one-factor spot: dynamic programming on a lattice of the factor,
+its decision rule, and the dual penalty built from its value function (the tightest measured).
+
+The spot's only state is the Ornstein-Uhlenbeck factor X (spot_t = F_t exp(X_t - v_t / 2),
+X_{t+1} = a X_t + s eps), so the value of the storage is V_t(n, X) on the inventory grid of
+`_lsmc.py`. On `points` equally spaced levels x_g spanning +- `width` standard deviations of X,
+V is represented by its piecewise-linear interpolant in X (flat beyond the ends), whose
+expectation under a normal N(mu, s^2) is exact and linear in the level values:
+
+    E[V~(Y)] = V_0 + sum_g (m_g - m_{g-1}) [(mu - x_g) N(d_g) + s n(d_g)],   d_g = (mu - x_g) / s,
+
+with m_g the slope of V~ right of x_g (m_{-1} = m_{G-1} = 0). Backward over days,
+C_t(n', x_g) = E[V~_{t+1}(n', a x_g + s eps)] and V_t(n, x_g) = max_k [cash_t(k, S_t(x_g)) +
+C_t(n + k, x_g)]. The lattice value at X_0 = 0 is an approximation (discretisation), not a bound;
+its decision rule, run on paths with C_t interpolated at the path's X_t, is a non-anticipative
+policy (a lower bound out of sample); and w_t(n') = V~_{t+1}(n', X_{t+1}) - E_t V~_{t+1}(n',
+X_{t+1}), with the expectation above (exact), is a penalty for `_dual.py`. Specific to the
+one-factor model: LSMC's regressions carry over to richer price models, this does not.
+"""
+
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.scipy.stats import norm
+
+from snapo_ode import InputError, Scene, check_count, check_range
+
+from ._inputs import StorageInputs
+from ._lsmc import InventoryGrid, _move_cash
+from ._model import Schedule, factor_transition, kept_fraction
+from ._penalty import AbstractPenalty
+
+
+class FactorLattice(NamedTuple):
+    """`factor`: the levels x_g, shape (G,); `continuation`: C_t(n', x_g), shape (T, G, N);
+    `values`: V_t(n, x_g), shape (T, G, N) [$] (0 at nodes from which the terminal requirement
+    cannot be met); `value`: V_0 at the start node and X_0 = 0 [$]."""
+
+    factor: jax.Array
+    continuation: jax.Array
+    values: jax.Array
+    value: jax.Array
+
+
+def _calls(factor: jax.Array, mean: jax.Array, sd) -> jax.Array:
+    """E (Y - x_g)^+ for Y ~ N(mean, sd^2), shape mean.shape + (G,)."""
+    d = (mean[..., None] - factor) / sd
+    return (mean[..., None] - factor) * norm.cdf(d) + sd * norm.pdf(d)
+
+
+def _kinks(factor: jax.Array) -> jax.Array:
+    """K, shape (G, G): K @ V are the slope changes m_g - m_{g-1} of the interpolant of levels V,
+    so that E[V~(Y)] = V_0 + calls @ (K @ V)."""
+    size = factor.shape[0]
+    slopes = np.eye(size, k=1) - np.eye(size)  # row g: V_{g+1} - V_g = m_g dx; flat beyond the end
+    slopes[-1] = 0.0
+    return jnp.asarray(slopes - np.eye(size, k=-1) @ slopes) / (factor[1] - factor[0])
+
+
+def _interpolate(factor: jax.Array, table: jax.Array, x: jax.Array) -> jax.Array:
+    """Rows of `table` (G, N) interpolated linearly at `x` (paths,), flat beyond the ends."""
+    spacing = factor[1] - factor[0]
+    position = jnp.clip((x - factor[0]) / spacing, 0, factor.shape[0] - 1)
+    low = jnp.clip(jnp.floor(position).astype(int), 0, factor.shape[0] - 2)
+    weight = (position - low)[:, None]
+    return (1 - weight) * table[low] + weight * table[low + 1]
+
+
+def _factor(inputs: StorageInputs, prices: jax.Array) -> jax.Array:
+    """X_t = log(S_t / F_t) + v_t / 2, shape (paths, T)."""
+    return jnp.log(prices / inputs.forward_curve) + factor_transition(inputs).variance / 2
+
+
+def solve_factor_lattice(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, *, points: int = 200,
+                         width: float = 7.0) -> FactorLattice:
+    """Backward induction on `points` factor levels over +- `width` times the largest standard
+    deviation of X_t over the horizon.
+
+    **Raises:** `InputError` at zero volatility (nothing to discretise: use the intrinsic LP).
+    """
+    check_count("points", points, 3, 100_000)
+    check_range("width", width, 1.0, 50.0)
+    if float(inputs.volatility) <= 0:
+        raise InputError("volatility = 0: the factor lattice needs a random spot; the intrinsic LP is exact here.")
+    return _solve(inputs, scene, grid, int(points), float(width))
+
+
+@eqx.filter_jit
+def _solve(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, points: int, width: float) -> FactorLattice:
+    transition = factor_transition(inputs)
+    spread = width * jnp.sqrt(jnp.max(transition.variance))
+    factor = jnp.linspace(-spread, spread, points)
+    # E[V~_{t+1}(a x_g + s eps)] = weights @ V_{t+1}, the same (G, G) matrix every day.
+    weights = jnp.zeros(points).at[0].set(1.0) + _calls(factor, transition.decay * factor, transition.step_sd) @ _kinks(
+        factor)
+    targets = jnp.asarray(grid.targets)
+
+    def back(later, today):
+        day, forward, variance, allowed = today
+        continuation = weights @ later
+        cash = _move_cash(inputs, scene, grid, forward * jnp.exp(factor - variance / 2), day)[:, None, :]
+        score = jnp.where(allowed[None], cash + continuation[:, targets], -jnp.inf)
+        values = jnp.max(score, axis=-1)
+        values = jnp.where(jnp.isfinite(values), values, 0.0)  # no move: never reached
+        return values, (continuation, values)
+
+    nodes = targets.shape[0]
+    _, (continuation, values) = jax.lax.scan(
+        back, jnp.zeros((points, nodes)),
+        (jnp.arange(inputs.n_days), inputs.forward_curve, transition.variance, jnp.asarray(grid.allowed)),
+        reverse=True)
+    value = _interpolate(factor, values[0], jnp.zeros(1))[0, grid.start_node]
+    return FactorLattice(factor, continuation, values, value)
+
+
+@eqx.filter_jit
+def run_lattice_policy(lattice: FactorLattice, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
+                       prices: jax.Array) -> Schedule:
+    """The lattice's decision rule on `prices` (paths, T): each day the move maximising today's
+    cash plus C_t interpolated at the path's X_t. Returns the hard schedule, as
+    `run_lsmc_policy` does."""
+    targets = jnp.asarray(grid.targets)
+    net_moves = jnp.asarray(grid.moves * grid.spacing)
+
+    def forward(node, today):
+        day, price, x, continuation, allowed = today
+        reachable = targets[node]
+        value_after = jnp.take_along_axis(_interpolate(lattice.factor, continuation, x), reachable, axis=-1)
+        cash = _move_cash(inputs, scene, grid, price, day)
+        best = jnp.argmax(jnp.where(allowed[node], cash + value_after, -jnp.inf), axis=-1)
+        chosen = lambda a: jnp.take_along_axis(a, best[:, None], axis=-1)[:, 0]  # noqa: E731
+        return chosen(reachable), (node, chosen(cash), net_moves[best])
+
+    start = jnp.full(prices.shape[0], grid.start_node)
+    last, (nodes, cash, net) = jax.lax.scan(
+        forward, start, (jnp.arange(inputs.n_days), prices.T, _factor(inputs, prices).T, lattice.continuation,
+                         jnp.asarray(grid.allowed)))
+    inventory = grid.spacing * jnp.concatenate([nodes, last[None]]).T
+    kept = kept_fraction(inputs, scene)
+    return Schedule(cash.sum(0), jnp.maximum(net, 0.0).T / kept, jnp.maximum(-net, 0.0).T, inventory)
+
+
+class LatticePenalty(AbstractPenalty):
+    """w_t(n') = V~_{t+1}(n', X_{t+1}) - E_t V~_{t+1}(n', X_{t+1}) from a `FactorLattice`'s
+    values, the expectation exact (see the module docstring); 0 on the last day."""
+
+    factor: jax.Array
+    later_values: jax.Array  # V_{t+1}, shape (T, G, N), zero for t = T - 1
+
+    def __init__(self, lattice: FactorLattice):
+        self.factor = lattice.factor
+        self.later_values = jnp.concatenate([lattice.values[1:], jnp.zeros_like(lattice.values[:1])])
+
+    def daily(self, inputs: StorageInputs, prices: jax.Array):
+        transition = factor_transition(inputs)
+        factor = _factor(inputs, prices)
+        following = jnp.concatenate([factor[:, 1:], factor[:, -1:]], axis=1)
+        sd = jnp.broadcast_to(transition.step_sd, (inputs.n_days,))
+        return transition.decay * factor.T, following.T, sd, self.later_values
+
+    def today(self, day_inputs) -> jax.Array:
+        mean, following, sd, later = day_inputs
+        # At zero volatility (sd 0) the lattice is refused; the guard keeps the trace finite.
+        calls = _calls(self.factor, mean, jnp.maximum(sd, 1e-300))
+        expected = later[0] + calls @ (_kinks(self.factor) @ later)
+        return _interpolate(self.factor, later, following) - expected

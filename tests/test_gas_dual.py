@@ -1,0 +1,201 @@
+"""The information-relaxation dual bound and the LSMC pathwise deltas: the exact conditional
+means of the penalty's features, the bound against the LSMC and the intrinsic LP at zero
+volatility, against any policy (path by path with the penalty, and in the mean) and against
+perfect foresight; the one-reverse-pass deltas against central bumps of the refitted valuation."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import snapo_ode
+from finance import gas_storage as gs
+from finance.gas_storage import (
+    BDJ_MEAN_REVERSION, BDJ_VOLATILITY, CASES, fit_lsmc, inventory_grid, perfect_foresight, run_lsmc_policy,
+    spot_prices)
+from finance.gas_storage import _dual as dual
+from finance.gas_storage import _lattice as lattice
+from finance.gas_storage import _penalty as penalties
+from finance.gas_storage._lsmc_deltas import lsmc_bumped_deltas, lsmc_value_and_deltas
+from finance.gas_storage._model import spot_factor
+
+BASES = [penalties.SpotPowers(4), penalties.ShockHermite(3), penalties.SpotCalls((0.8, 1.0, 1.25))]
+
+
+def bdj_inputs(volatility=0.0):
+    facility, curve = CASES["bdj"]()
+    return gs.make_inputs(facility, curve, volatility=volatility, mean_reversion=BDJ_MEAN_REVERSION)
+
+
+def small_inputs(volatility, days=40):
+    """B&dJ's rates on a 50,000 MWh store over 40 days of its curve (Nov-Dec), 21 nodes."""
+    facility, curve = CASES["bdj"]()
+    facility = dict(facility, capacity=50_000.0, initial_inventory=20_000.0, terminal_inventory_min=20_000.0)
+    return gs.make_inputs(facility, curve[120:120 + days], volatility=volatility, mean_reversion=BDJ_MEAN_REVERSION)
+
+
+def shocks(inputs, paths, seed):
+    return jax.random.normal(jax.random.key(seed), (paths, inputs.n_days))
+
+
+def test_day_steps_recover_the_shocks_and_features_have_exact_conditional_mean_zero():
+    inputs = bdj_inputs(BDJ_VOLATILITY["high"])
+    eps = shocks(inputs, 3, 0)
+    prices = spot_prices(inputs, eps)[0]
+    steps = penalties._day_steps(inputs, prices, jnp.full(inputs.n_days, 0.3))
+    # The step from day t to t+1 uses shock t: recovering it checks a, s and Var(X_t) exactly.
+    recovered = (steps.log_ratio_next - steps.mean) / steps.step_sd[:, None]
+    np.testing.assert_allclose(recovered[:-1], eps.T[:-1], atol=1e-9)
+    # Features at three fixed day-t states, averaged over 400,000 draws of the next day's shock.
+    draws = jax.random.normal(jax.random.key(1), (400_000,))
+    for basis in BASES:
+        for mean in (-0.4, 0.0, 0.35):
+            step = penalties.DayStep(mean + 0.0945 * draws, jnp.full(draws.shape, mean), jnp.asarray(0.0945),
+                                jnp.asarray(True), jnp.asarray(0.3))
+            features = np.asarray(basis.innovations(step))
+            se = features.std(0) / np.sqrt(draws.size)
+            # 1e-12: a far out-of-the-money call that no draw exercises is off by its Black price alone.
+            assert np.all(np.abs(features.mean(0)) <= 4.5 * se + 1e-12), (basis, mean, features.mean(0) / se)
+
+
+@pytest.mark.parametrize("basis", BASES, ids=lambda b: type(b).__name__)
+def test_dual_equals_lsmc_and_intrinsic_lp_at_zero_volatility(basis):
+    inputs = bdj_inputs(0.0)
+    scene = gs.stochastic_scene()
+    lp = gs.solve_intrinsic(inputs, gs.deterministic_scene())
+    grid = inventory_grid(inputs, scene, 101)
+    prices = spot_prices(inputs, shocks(inputs, 4, 0))[0]
+    fit = fit_lsmc(inputs, scene, grid, prices, 3)
+    penalty = penalties.fit_penalty(fit, inputs, scene, grid, prices, basis, state_degree=2)
+    bound = dual.dual_bound(penalty, inputs, scene, grid, prices)
+    lsmc = run_lsmc_policy(fit, inputs, scene, grid, prices).value
+    assert bound.bounds_continuous_policies
+    np.testing.assert_allclose(bound.values, lp.value, rtol=1e-12)
+    np.testing.assert_allclose(lsmc, lp.value, rtol=1e-12)
+
+
+def test_only_whole_step_facilities_without_ratchets_bound_continuous_policies():
+    scene = gs.stochastic_scene()
+    assert dual.bounds_continuous_policies(bdj_inputs(), scene, inventory_grid(bdj_inputs(), scene, 101))
+    # 250,000 / 40 = 6,250 a step: the 2,500 injection is not a whole step.
+    assert not dual.bounds_continuous_policies(bdj_inputs(), scene, inventory_grid(bdj_inputs(), scene, 41))
+    sample = gs.make_inputs(gs.sample_facility(), gs.sample_curve())  # ratchets
+    assert not dual.bounds_continuous_policies(sample, scene, inventory_grid(sample, scene, 1001))
+
+
+@pytest.fixture(scope="module")
+def high_volatility_case():
+    """bdj at high volatility, 101 nodes: LSMC and penalty fitted on 500 paths, evaluated on 300 others."""
+    inputs = bdj_inputs(BDJ_VOLATILITY["high"])
+    scene = gs.stochastic_scene()
+    grid = inventory_grid(inputs, scene, 101)
+    fit_prices = spot_prices(inputs, shocks(inputs, 500, 1))[0]
+    eval_shocks = shocks(inputs, 300, 2)
+    eval_prices = spot_prices(inputs, eval_shocks)[0]
+    fit = fit_lsmc(inputs, scene, grid, fit_prices, 3)
+    basis = penalties.SpotPowers(3)
+    penalty = penalties.fit_penalty(fit, inputs, scene, grid, fit_prices, basis, target="fitted")
+    bound = dual.dual_bound(penalty, inputs, scene, grid, eval_prices)
+    return inputs, scene, grid, eval_shocks, eval_prices, fit, basis, penalty, bound
+
+
+def test_dual_bounds_lsmc_and_a_continuous_policy_pathwise_and_in_the_mean(high_volatility_case):
+    inputs, scene, grid, eval_shocks, eval_prices, fit, basis, penalty, bound = high_volatility_case
+    upper = np.asarray(bound.values)
+    lsmc = run_lsmc_policy(fit, inputs, scene, grid, eval_prices)
+    # An untrained network trading continuous amounts (off the grid), non-anticipative.
+    policy = gs.make_policy(scene, inputs, key=jax.random.key(5), spot_scale=0.3)
+    network = gs.simulate(policy, inputs, scene, sharpness=None, shocks=eval_shocks)
+    off_grid = np.asarray(network.inventory) / grid.spacing
+    assert np.max(np.abs(off_grid - np.round(off_grid))) > 0.1
+    for schedule in (lsmc, network):
+        cash = np.asarray(schedule.value)
+        paid = np.asarray(dual.schedule_penalty(penalty, inputs, grid, eval_prices, schedule.inventory))
+        # Path by path: the relaxed problem's optimum beats this schedule's cash less its penalty.
+        assert np.all(upper >= cash - paid - 1e-9 * np.abs(upper))
+        # Non-anticipative, so its penalty has mean zero ...
+        assert abs(paid.mean()) <= 4 * paid.std(ddof=1) / np.sqrt(paid.size)
+        # ... and the bound is above its value, including with the penalty as a control variate.
+        assert upper.mean() >= cash.mean()
+        assert upper.mean() >= (cash - paid).mean()
+
+
+def test_dual_is_tight_and_below_perfect_foresight(high_volatility_case):
+    inputs, scene, grid, eval_shocks, eval_prices, fit, basis, penalty, bound = high_volatility_case
+    upper = np.asarray(bound.values)
+    # Zero penalty: perfect foresight on the grid, equal to the pathwise LP on bdj (whole steps).
+    zero = np.asarray(dual.dual_bound(None, inputs, scene, grid, eval_prices).values)
+    lp = perfect_foresight(inputs, scene, eval_prices[:8])
+    np.testing.assert_allclose(zero[:8], lp, rtol=1e-10)
+    assert upper.mean() <= zero.mean()
+    # The LSMC's gap, with the penalty as a control variate: ~1.5% at this size (10,000 paths: 1.0%);
+    # a wrong or zero penalty gives 25% or more.
+    lsmc = run_lsmc_policy(fit, inputs, scene, grid, eval_prices)
+    paid = np.asarray(dual.schedule_penalty(penalty, inputs, grid, eval_prices, lsmc.inventory))
+    gap = upper - (np.asarray(lsmc.value) - paid)
+    assert np.all(gap >= -1e-9 * upper)
+    assert gap.mean() <= 0.03 * upper.mean()
+
+
+def test_lsmc_pathwise_deltas_are_the_derivative_of_the_refitted_valuation():
+    inputs = small_inputs(BDJ_VOLATILITY["high"])
+    scene = gs.stochastic_scene()
+    grid = inventory_grid(inputs, scene, 21)
+    fit_shocks, eval_shocks = shocks(inputs, 400, 3), shocks(inputs, 400, 4)
+    fit = fit_lsmc(inputs, scene, grid, spot_prices(inputs, fit_shocks)[0], 3)
+    value, deltas = lsmc_value_and_deltas(fit, inputs, scene, grid, eval_shocks)
+    schedule = run_lsmc_policy(fit, inputs, scene, grid, spot_prices(inputs, eval_shocks)[0])
+    assert float(value) == pytest.approx(float(jnp.mean(schedule.value)), rel=1e-12)
+    # Closed form of the pathwise derivative: mean over paths of exp(factor_t) (withdrawal - injection),
+    # and Euler's identity (the value is homogeneous of degree 1 in the curve): sum_t F_t delta_t = value.
+    per_path = np.exp(np.asarray(spot_factor(inputs, eval_shocks))) * np.asarray(schedule.withdrawal
+                                                                                 - schedule.injection)
+    np.testing.assert_allclose(deltas, per_path.mean(0), rtol=1e-10, atol=1e-6)
+    assert float(jnp.dot(inputs.forward_curve, deltas)) == pytest.approx(float(value), rel=1e-10)
+    # Central bumps of the whole valuation, refitted on the same paths: below the smallest decision
+    # margin (relative step 1e-9) no decision moves, and they agree to round-off on every day.
+    # Larger steps (1e-2) move decisions; then they differ from the frozen rule's derivative by the
+    # rule's own response, measured systematic (see docs/gas_storage.md), not only noise.
+    bumped = np.asarray(lsmc_bumped_deltas(inputs, scene, grid, fit_shocks, eval_shocks, 3, relative_step=1e-9))
+    np.testing.assert_allclose(bumped, deltas, rtol=1e-4, atol=1e-2 * float(np.max(np.abs(deltas))) * 1e-2)
+
+
+def test_lattice_expectation_of_the_interpolant_is_exact():
+    factor = jnp.linspace(-1.0, 1.0, 41)
+    levels = jax.random.normal(jax.random.key(6), (41, 3)).cumsum(0)  # rough, with kinks at every level
+    means, sd = jnp.array([-1.3, -0.2, 0.0, 0.45, 1.1]), 0.09
+    expected = levels[0] + lattice._calls(factor, means, sd) @ (lattice._kinks(factor) @ levels)
+    # Fine trapezoidal quadrature over +- 12 sd of the interpolant (flat beyond the ends).
+    z = jnp.linspace(-12.0, 12.0, 240_001)
+    density = jnp.exp(-0.5 * z**2) / jnp.sqrt(2 * jnp.pi)
+    for mean, row in zip(means, expected):
+        values = lattice._interpolate(factor, levels, mean + sd * z)
+        quadrature = jnp.trapezoid(values * density[:, None], z, axis=0)
+        np.testing.assert_allclose(row, quadrature, rtol=0, atol=1e-8)
+
+
+def test_lattice_refuses_zero_volatility():
+    inputs = bdj_inputs(0.0)
+    scene = gs.stochastic_scene()
+    with pytest.raises(snapo_ode.InputError, match="volatility = 0"):
+        lattice.solve_factor_lattice(inputs, scene, inventory_grid(inputs, scene, 101))
+
+
+def test_lattice_policy_and_its_dual_bracket_the_optimum_tightly(high_volatility_case):
+    inputs, scene, grid, eval_shocks, eval_prices, fit, basis, penalty, bound = high_volatility_case
+    solved = lattice.solve_factor_lattice(inputs, scene, grid, points=100)
+    tight = lattice.LatticePenalty(solved)
+    upper = np.asarray(dual.dual_bound(tight, inputs, scene, grid, eval_prices).values)
+    policies = {"lattice": lattice.run_lattice_policy(solved, inputs, scene, grid, eval_prices),
+                "lsmc": run_lsmc_policy(fit, inputs, scene, grid, eval_prices)}
+    gaps = {}
+    for name, schedule in policies.items():
+        paid = np.asarray(dual.schedule_penalty(tight, inputs, grid, eval_prices, schedule.inventory))
+        assert abs(paid.mean()) <= 4 * paid.std(ddof=1) / np.sqrt(paid.size)
+        gaps[name] = upper - (np.asarray(schedule.value) - paid)
+        assert np.all(gaps[name] >= -1e-9 * upper)
+    # The lattice's own rule is within 0.05% of its bound (measured 0.01%); LSMC fitted on 500
+    # paths is further (measured ~1%), and the LSMC penalty's bound is above the lattice's.
+    assert gaps["lattice"].mean() <= 5e-4 * upper.mean()
+    assert gaps["lsmc"].mean() > gaps["lattice"].mean()
+    assert np.asarray(bound.values).mean() > upper.mean()
