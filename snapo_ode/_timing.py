@@ -39,3 +39,9 @@ def time_function(fn: Callable, *args, repeats: int = 5, **kwargs) -> tuple[Timi
     runs = tuple(_call(fn, args, kwargs)[0] for _ in range(max(repeats, 1)))
     median = statistics.median(runs)
     return Timing(median, max(first - median, 0.0), first, runs), out
+
+
+def time_once(fn: Callable, *args, **kwargs) -> tuple[float, Any]:
+    """Wall time of one call of `fn(*args, **kwargs)` (compile included, outputs ready) and the
+    outputs: for runs too long to repeat, reported as such."""
+    return _call(fn, args, kwargs)

@@ -196,7 +196,8 @@ def value_lsmc(inputs: StorageInputs, scene: Scene, fit_prices, eval_prices, *, 
 
     Returns `lsmc_in_sample, lsmc_in_sample_se, lsmc_out_of_sample, lsmc_se` [$],
     `lsmc_fit_seconds, lsmc_eval_seconds, lsmc_compile_seconds`, `lsmc_nodes, lsmc_degree`, and
-    under `"schedule"` the out-of-sample `Schedule`.
+    (not for JSON) under `"schedule"` the out-of-sample `Schedule`, `"fit"` the `LSMCFit` and
+    `"grid"` the `InventoryGrid`.
     """
     check_count("degree", degree, 0, 12)
     grid = inventory_grid(inputs, scene, nodes)
@@ -213,4 +214,6 @@ def value_lsmc(inputs: StorageInputs, scene: Scene, fit_prices, eval_prices, *, 
         "lsmc_nodes": int(nodes),
         "lsmc_degree": int(degree),
         "schedule": schedule,
+        "fit": fit,
+        "grid": grid,
     }

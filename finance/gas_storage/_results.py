@@ -122,7 +122,11 @@ class LSMCComparison(Result):
     """SNAPO against least-squares Monte Carlo on the same contract and the same fresh paths:
     the SNAPO `study` (its JSON fields stay at the top level of this one's JSON), both
     out-of-sample values with the hard constraints, their paired difference, the
-    perfect-foresight bound and the wall time of each method. Values [$]."""
+    perfect-foresight bound, the dual upper bound with each policy's duality gap (and the factor
+    lattice's near-optimal rule as a reference, at non-zero volatility), LSMC's pathwise deltas,
+    and the wall time of each method (`_certificate.py`). Values [$]; gaps as fractions of the
+    bound; `deltas_snapo_vs_lsmc`: the largest difference of the two methods' 365 deltas over the
+    largest LSMC delta."""
 
     study: StorageStudy = field(json=False)
     lsmc_in_sample: float
@@ -143,7 +147,32 @@ class LSMCComparison(Result):
     perfect_foresight_paths: int
     snapo_seconds: float
     lsmc_inventory_mean: list
+    dual_upper_bound: float
+    dual_upper_bound_se: float
+    dual_penalty: str
+    dual_bounds_continuous_policies: bool
+    dual_seconds: float
+    snapo_value_control_variate: float
+    snapo_value_control_variate_se: float
+    snapo_gap: float
+    snapo_gap_se: float
+    lsmc_value_control_variate: float
+    lsmc_value_control_variate_se: float
+    lsmc_gap: float
+    lsmc_gap_se: float
+    lattice_out_of_sample: float | None = None
+    lattice_se: float | None = None
+    lattice_value_control_variate: float | None = None
+    lattice_value_control_variate_se: float | None = None
+    lattice_gap: float | None = None
+    lattice_gap_se: float | None = None
+    lsmc_pathwise_deltas: list
+    lsmc_deltas_seconds: float
+    lsmc_plus_deltas_seconds: float
+    lsmc_plus_bumps_seconds: float
+    deltas_snapo_vs_lsmc: float
     lsmc_schedule: Schedule = field(json=False)
+    omit_none: ClassVar[bool] = True
 
     def to_json(self) -> dict:
         return {**self.study.to_json(), **super().to_json()}
@@ -158,6 +187,15 @@ class LSMCComparison(Result):
             f"    SNAPO - LSMC (paired)             {self.snapo_minus_lsmc:>16,.0f} $ +- {self.snapo_minus_lsmc_se:,.0f}",
             f"    perfect foresight ({self.perfect_foresight_paths} paths)     "
             f"{self.perfect_foresight:>16,.0f} $ +- {self.perfect_foresight_se:,.0f}",
-            f"  wall time: SNAPO training + every delta {self.snapo_seconds:.1f} s; LSMC valuation "
-            f"{self.lsmc_fit_seconds:.2f} s (+ {self.lsmc_eval_seconds:.2f} s out of sample); compile apart",
+            f"    dual upper bound ({self.dual_penalty})   {self.dual_upper_bound:>16,.0f} $ +- "
+            f"{self.dual_upper_bound_se:,.0f}",
+            f"    duality gap: SNAPO {100 * self.snapo_gap:.3f}% +- {100 * self.snapo_gap_se:.3f}%, LSMC "
+            f"{100 * self.lsmc_gap:.3f}% +- {100 * self.lsmc_gap_se:.3f}%"
+            + ("" if self.lattice_gap is None else f", lattice rule {100 * self.lattice_gap:.3f}%")
+            + ("" if self.dual_bounds_continuous_policies else " (the bound is certified for grid policies only)"),
+            f"  value + 365 deltas: SNAPO {self.snapo_seconds:.1f} s (training and one reverse pass); LSMC + pathwise "
+            f"deltas {self.lsmc_plus_deltas_seconds:.1f} s; LSMC + bumps ~{self.lsmc_plus_bumps_seconds / 60:.0f} min "
+            f"(estimated); compile apart",
+            f"  SNAPO's deltas against LSMC's pathwise deltas: largest difference {self.deltas_snapo_vs_lsmc:.1%} of "
+            "the largest",
         ])

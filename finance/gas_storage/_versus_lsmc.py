@@ -1,10 +1,14 @@
 """SNAPO against least-squares Monte Carlo on the same contract and the same fresh price paths:
-both out-of-sample values, hard-evaluated, their paired difference, the perfect-foresight bound,
-and the wall time of each method."""
+both out-of-sample values, hard-evaluated, their paired difference, the perfect-foresight and
+dual upper bounds with each policy's duality gap, the deltas of both, and the wall time of
+each method."""
 
 import jax
 import numpy as np
 
+from snapo_ode import agreement
+
+from ._certificate import duality_gaps, lsmc_deltas
 from ._inputs import StorageInputs
 from ._lsmc import perfect_foresight, value_lsmc
 from ._model import spot_prices, stochastic_scene
@@ -21,11 +25,12 @@ def lsmc_fit_shocks(settings: StudySettings, n_days: int) -> jax.Array:
 
 
 def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: int = 101, degree: int = 3,
-                      foresight_paths: int = 256) -> LSMCComparison:
+                      foresight_paths: int = 256, lattice_points: int = 200) -> LSMCComparison:
     """Run the SNAPO study (`run_study`, stochastic) and value the contract by LSMC with
     regressions fitted on `settings.paths` paths of their own; evaluate LSMC's decision rule on the
-    study's evaluation paths (SNAPO's hard schedule on them comes with the study), and the
-    perfect-foresight LP on the first `foresight_paths` of them."""
+    study's evaluation paths (SNAPO's hard schedule on them comes with the study), the
+    perfect-foresight LP on the first `foresight_paths` of them, and the dual bound, the gaps and
+    the deltas on all of them (`_certificate.py`)."""
     if not settings.stochastic:
         raise ValueError("the LSMC comparison needs StudySettings(stochastic=True)")
     study = run_study(inputs, settings)
@@ -33,15 +38,22 @@ def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: 
     eval_prices, _ = spot_prices(inputs, study.evaluation_shocks)
     fit_prices, _ = spot_prices(inputs, lsmc_fit_shocks(settings, inputs.n_days))
     lsmc = value_lsmc(inputs, scene, fit_prices, eval_prices, nodes=nodes, degree=degree)
-    schedule = lsmc.pop("schedule")
+    schedule, fit, grid = lsmc.pop("schedule"), lsmc.pop("fit"), lsmc.pop("grid")
     snapo_values = np.asarray(study.hard.value)
     difference = snapo_values - np.asarray(schedule.value)
     subset = min(foresight_paths, settings.paths)
     foresight = perfect_foresight(inputs, scene, eval_prices[:subset], progress=settings.progress)
+    gaps = duality_gaps(inputs, scene, grid, study.evaluation_shocks, {"snapo": study.hard, "lsmc": schedule},
+                        lattice_points=lattice_points)
+    deltas = lsmc_deltas(fit, inputs, scene, grid, study.evaluation_shocks, lsmc["lsmc_fit_seconds"],
+                         lsmc["lsmc_eval_seconds"])
     return LSMCComparison(
-        study=study, **lsmc,
+        study=study, **lsmc, **gaps, **deltas,
         snapo_out_of_sample=float(snapo_values.mean()), snapo_se=standard_error(snapo_values),
         snapo_minus_lsmc=float(difference.mean()), snapo_minus_lsmc_se=standard_error(difference),
         perfect_foresight=float(foresight.mean()), perfect_foresight_se=standard_error(foresight),
-        perfect_foresight_paths=subset, snapo_seconds=study.train_seconds + study.gradient_seconds,
-        lsmc_inventory_mean=np.asarray(schedule.inventory).mean(0).tolist(), lsmc_schedule=schedule)
+        perfect_foresight_paths=subset,
+        # Wall time from the start of training to the 365 deltas: the first (compiling) reverse pass too.
+        snapo_seconds=study.train_wall_seconds + study.compile_breakdown["gradient"] + study.gradient_seconds,
+        lsmc_inventory_mean=np.asarray(schedule.inventory).mean(0).tolist(), lsmc_schedule=schedule,
+        deltas_snapo_vs_lsmc=agreement(np.asarray(study.deltas), np.asarray(deltas["lsmc_pathwise_deltas"])).normwise)
