@@ -22,8 +22,13 @@ COLUMNS = (
     Column("SNAPO out of sample", "snapo_out_of_sample", _million), Column("+-", "snapo_se", _million),
     Column("SNAPO - LSMC (paired)", "snapo_minus_lsmc", _million), Column("+-", "snapo_minus_lsmc_se", _million),
     Column("perfect foresight", "perfect_foresight", _million), Column("+-", "perfect_foresight_se", _million),
-    Column("LSMC valuation s", "lsmc_fit_seconds", ".2f"), Column("SNAPO training s", "snapo_train_seconds", ".1f"),
-    Column("SNAPO 365 deltas s", "snapo_deltas_seconds", ".2f"),
+    Column("dual bound", "dual_upper_bound", _million), Column("+-", "dual_upper_bound_se", _million),
+    Column("SNAPO gap", "snapo_gap", lambda v: f"{100 * v:.3f}%"), Column("LSMC gap", "lsmc_gap", lambda v: f"{100 * v:.3f}%"),
+    Column("lattice rule", "lattice_out_of_sample", _million),
+    Column("SNAPO training + 365 deltas s", "snapo_seconds", ".1f"), Column("LSMC valuation s", "lsmc_fit_seconds", ".2f"),
+    Column("LSMC + pathwise deltas s", "lsmc_plus_deltas_seconds", ".1f"),
+    Column("LSMC + 730 bumps (est.) min", "lsmc_plus_bumps_seconds", lambda v: f"{v / 60:.0f}"),
+    Column("deltas SNAPO vs LSMC", "deltas_snapo_vs_lsmc", ".1%"),
 )
 
 
@@ -48,7 +53,10 @@ def run_lsmc_benchmark(out: pathlib.Path, *, paths: int, train_paths: int, train
             **{key: getattr(comparison, key) for key in (
                 "lsmc_in_sample", "lsmc_out_of_sample", "lsmc_se", "snapo_out_of_sample", "snapo_se",
                 "snapo_minus_lsmc", "snapo_minus_lsmc_se", "perfect_foresight", "perfect_foresight_se",
-                "lsmc_fit_seconds", "lsmc_eval_seconds", "snapo_seconds", "lsmc_compile_seconds")},
+                "dual_upper_bound", "dual_upper_bound_se", "snapo_gap", "snapo_gap_se", "lsmc_gap", "lsmc_gap_se",
+                "lattice_out_of_sample", "lattice_gap", "dual_seconds", "lsmc_fit_seconds", "lsmc_eval_seconds",
+                "lsmc_deltas_seconds", "lsmc_plus_deltas_seconds", "lsmc_plus_bumps_seconds", "snapo_seconds",
+                "lsmc_compile_seconds", "deltas_snapo_vs_lsmc")},
             "snapo_train_seconds": study.train_seconds, "snapo_deltas_seconds": study.gradient_seconds,
             "snapo_compile_seconds": study.compile_seconds,
         })
