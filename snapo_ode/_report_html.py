@@ -20,7 +20,8 @@ SHORT_TABLE_ROWS = 24  # tables up to this many rows are kept on one page
 CSS = """
 :root{--ink:#1b1f24;--muted:#5b6570;--rule:#d0d7de;--accent:#1f4e79;--warn:#9a3412}
 body{font-family:"DejaVu Sans","Liberation Sans",Arial,sans-serif;color:var(--ink);max-width:1060px;
-margin:24px auto;padding:0 24px;font-size:14px;line-height:1.45;counter-reset:section}
+margin:24px auto;padding:0 24px;font-size:14px;line-height:1.45;counter-reset:section;
+font-variant-ligatures:none}
 h1{font-size:25px;color:var(--accent);margin:0 0 4px}
 .subtitle{color:var(--muted);margin:0 0 14px}
 h2{counter-increment:section;color:var(--accent);font-size:19px;border-bottom:2px solid var(--accent);
@@ -38,7 +39,7 @@ nav.toc a{color:var(--accent);text-decoration:none}
 table{border-collapse:collapse;margin:4px 0 14px;font-size:12.5px}
 caption{caption-side:top;text-align:left;font-weight:600;padding:0 0 4px;font-size:13px}
 th{background:#eef2f6;text-align:left;border-bottom:1.5px solid #8a96a3;padding:3px 8px;vertical-align:bottom}
-td{border-bottom:1px solid var(--rule);padding:3px 8px;vertical-align:top;overflow-wrap:anywhere}
+td{border-bottom:1px solid var(--rule);padding:3px 8px;vertical-align:top;overflow-wrap:break-word}
 td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 tbody tr:nth-child(even){background:#f8fafc}
 figure{margin:8px 0 16px;break-inside:avoid}

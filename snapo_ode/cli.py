@@ -177,7 +177,9 @@ def parse(cli: CommandLine, argv: Sequence[str] | None = None) -> argparse.Names
         args.json = args.json if args.json is not None else args.out / args.json_name
         args.progress = not args.no_progress
     if getattr(args, "trains", False) and args.checkpoint is None:
-        args.checkpoint = args.json.with_suffix(".checkpoint.eqx")
+        # A report's directory holds only what the report publishes: its checkpoint goes beside it.
+        args.checkpoint = (args.out.with_name(f"{args.out.name}.checkpoint.eqx") if getattr(args, "report_directory", False)
+                           else args.json.with_suffix(".checkpoint.eqx"))
     return args
 
 
