@@ -15,6 +15,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                "value_lsmc"),
     "._model": ("GAS_EFFECTS", "Schedule", "deterministic_scene", "expected_value", "inventory_floor", "make_policy",
                 "simulate", "spot_prices", "stochastic_scene"),
+    "._report": ("build_gas_report", "gas_report"),
     "._results": ("LSMCComparison", "StorageStudy", "standard_error"),
     "._study": ("StudySettings", "constraint_violation", "evaluation_shocks", "run_study"),
     "._versus_lsmc": ("LSMC_KEY", "compare_with_lsmc", "lsmc_fit_shocks"),
