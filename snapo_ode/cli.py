@@ -15,6 +15,12 @@ Every verb, bench and report gets the same options from the core:
 - `--seed N`: the random seed (default 0).
 - `--debug`: a traceback instead of the one-line error.
 
+A report also gets `--no-pdf` (HTML, CSV and JSON only) and `--require-pdf` (exit 2 before any
+computation when headless Chromium, which prints the PDF, is missing). By default a missing
+Chromium is a warning: said at once on stderr, and in the report's JSON and HTML, which are
+written with the CSV (exit 0), so a long computation is not lost for want of a browser.
+`publish_report(args, report)` writes a domain's `snapo_ode.Report` with these options.
+
 Verbs that train also get `--checkpoint` and `--resume` (`add_training_options`).
 
 Exit codes: 0 success; 2 a user mistake (`InputError`: a one-line `snapo: error: ...` naming
@@ -50,6 +56,32 @@ def check_output_paths(args: argparse.Namespace) -> None:
     check_writable_under(args.out.resolve(), "--out")
     if getattr(args, "report_directory", False):
         check_replaceable_directory(args.out, "--out")
+        check_pdf_printer(args)
+
+
+def check_pdf_printer(args: argparse.Namespace) -> None:
+    """Before computing a report: with `--require-pdf`, refuse when Chromium is missing; by
+    default, warn at once that the PDF will be left out."""
+    from ._pdf import find_chromium, missing_message
+
+    if args.pdf == "skip" or find_chromium() is not None:
+        return
+    if args.pdf == "require":
+        raise InputError(f"--require-pdf: {missing_message()}")
+    print(f"snapo: warning: report.pdf will not be written: {missing_message()}", file=sys.stderr)
+
+
+def publish_report(args: argparse.Namespace, report) -> int:
+    """Write `report` (a `snapo_ode.Report`) into `args.out` with the report options, print the
+    files and any warning; returns the exit code (0)."""
+    from ._report import write_report
+
+    written = write_report(args.out, report, json_path=args.json, pdf=args.pdf)
+    for path in written.paths:
+        print(f"written: {path}")
+    for warning in written.warnings:
+        print(f"snapo: warning: {warning}", file=sys.stderr)
+    return 0
 
 
 def add_common_options(parser: argparse.ArgumentParser, *, out: pathlib.Path, json_name: str) -> None:
@@ -118,7 +150,12 @@ class CommandLine:
         """A report: `snapo report NAME ...`, written into `--out` (default `snapo-out/NAME-report`)."""
         parser = self._reports.add_parser(name, help=help, description=help)
         add_common_options(parser, out=DEFAULT_OUT / f"{name}-report", json_name="report.json")
-        parser.set_defaults(report_directory=True)
+        pdf = parser.add_mutually_exclusive_group()
+        pdf.add_argument("--no-pdf", dest="pdf", action="store_const", const="skip",
+                         help="write HTML, CSV and JSON only")
+        pdf.add_argument("--require-pdf", dest="pdf", action="store_const", const="require",
+                         help="fail at once (exit 2) if headless Chromium, which prints the PDF, is missing")
+        parser.set_defaults(report_directory=True, pdf="auto")
         return parser
 
 
@@ -135,11 +172,14 @@ def build(plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> Com
 def parse(cli: CommandLine, argv: Sequence[str] | None = None) -> argparse.Namespace:
     """Parse `argv`; fills in `args.json` (default `OUT/NAME.json`) and `args.progress`."""
     args = cli.parser.parse_args(argv)
+    args.command_line = ["snapo", *(sys.argv[1:] if argv is None else argv)]
     if hasattr(args, "json_name"):
         args.json = args.json if args.json is not None else args.out / args.json_name
         args.progress = not args.no_progress
     if getattr(args, "trains", False) and args.checkpoint is None:
-        args.checkpoint = args.json.with_suffix(".checkpoint.eqx")
+        # A report's directory holds only what the report publishes: its checkpoint goes beside it.
+        args.checkpoint = (args.out.with_name(f"{args.out.name}.checkpoint.eqx") if getattr(args, "report_directory", False)
+                           else args.json.with_suffix(".checkpoint.eqx"))
     return args
 
 

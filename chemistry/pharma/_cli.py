@@ -72,22 +72,42 @@ def run_train(args) -> int:
     return 0
 
 
+def _space_options(args) -> dict:
+    return dict(x=args.x, y=args.y, points=args.points, samples=args.samples, sigma=args.sigma, seed=args.seed,
+                level=args.level, verify_points=args.verify_points, surrogate_samples=args.surrogate_samples,
+                curvature_points=args.curvature_points)
+
+
 def run_design_space(args) -> int:
     from ._design_space import design_space
 
     chain, cpps = chain_from_args(args)
-    return _finish(design_space(chain, cpps, x=args.x, y=args.y, points=args.points, samples=args.samples,
-                                sigma=args.sigma, seed=args.seed, confidence=args.confidence), args.json)
+    return _finish(design_space(chain, cpps, **_space_options(args)), args.json)
 
 
 def run_report(args) -> int:
-    from ._report import build_report, write_report
+    from snapo_ode.cli import publish_report
+
+    from ._report import build_report, pharma_report, report_provenance
 
     chain, cpps = chain_from_args(args)
-    report = build_report(chain, cpps, points=args.points, samples=args.samples, repeats=args.repeats)
-    for path in write_report(args.out, report, args.json):
-        print(f"written: {path}")
-    return 0
+    data = build_report(chain, cpps, repeats=args.repeats, **_space_options(args))
+    return publish_report(args, pharma_report(data, report_provenance(chain, cpps, command=args.command_line)))
+
+
+def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
+    """The design space's grid, uncertainty, level and verification."""
+    parser.add_argument("--x", default="r1_temperature", help="the CPP on the map's horizontal axis")
+    parser.add_argument("--y", default="dryer_temperature", help="the CPP on the map's vertical axis")
+    parser.add_argument("--points", type=int, default=21, help="grid points per CPP over its PAR (default 21)")
+    parser.add_argument("--level", "--confidence", type=float, default=0.95, dest="level",
+                        help="the probability of meeting every spec that defines the design space (default 0.95)")
+    parser.add_argument("--sigma", type=float, default=0.1, help="standard deviation of each uncertain ln k")
+    parser.add_argument("--surrogate-samples", type=int, default=4096, help="draws of the surrogate map")
+    parser.add_argument("--curvature-points", type=int, default=6,
+                        help="coarse grid per CPP of the surrogate's second-order term (0: first order)")
+    parser.add_argument("--verify-points", type=int, default=9, help="grid points checked by full Monte Carlo")
+    parser.add_argument("--samples", type=int, default=1000, help="full-model draws at each verification point")
 
 
 def run_bench(args) -> int:
@@ -120,21 +140,15 @@ def register_pharma(cli) -> None:
     train.add_argument("--sharpness", type=float, default=50.0, help="of the softplus spec penalty")
     add_training_options(train)
     train.set_defaults(handler=run_train)
-    space = cli.command("design-space", "P(all specs) over a grid of two CPPs under kinetic uncertainty: Monte "
-                        "Carlo next to the linearised estimate", group=pharma)
+    space = cli.command("design-space", "P(all specs) over a fine grid of two CPPs under uncertain rate constants, "
+                        "from a sensitivity-based surrogate checked by full Monte Carlo", group=pharma)
     add_chain_arguments(space)
-    space.add_argument("--x", default="r1_temperature")
-    space.add_argument("--y", default="dryer_temperature")
-    space.add_argument("--points", type=int, default=7)
-    space.add_argument("--samples", type=int, default=64)
-    space.add_argument("--sigma", type=float, default=0.1, help="standard deviation of each ln k")
-    space.add_argument("--confidence", type=float, default=0.95)
+    add_design_space_arguments(space)
     space.set_defaults(handler=run_design_space)
-    report = cli.report("pharma", "the ICH Q8 sensitivity report: report.html (self-contained), report.pdf, "
-                        "sensitivities.csv, report.json")
+    report = cli.report("pharma", "the ICH Q8 sensitivity and design-space report: report.html, report.pdf "
+                        "(printed from it), CSV files, report.json")
     add_chain_arguments(report)
-    report.add_argument("--points", type=int, default=5, help="design-space grid points per CPP")
-    report.add_argument("--samples", type=int, default=32, help="design-space draws of the rate constants")
+    add_design_space_arguments(report)
     report.add_argument("--repeats", type=int, default=5, help="timed runs of the sensitivities")
     report.set_defaults(handler=run_report)
     bench = cli.bench("pharma", "20 sensitivities from 5 reverse passes vs 4 forward tangents: median after "

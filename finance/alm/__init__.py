@@ -22,6 +22,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._policy": ("FEATURES", "AbstractRebalancing", "FixedMix", "NeuralRebalancing", "bounded_weights",
                  "liability_matching", "sixty_forty"),
     "._sensitivities": ("BUMP_RELATIVE_STEP", "chunk_size", "objective_of_reported"),
+    "._report": ("alm_report", "build_alm_report"),
     "._results": ("ALMStudy", "Evaluation", "SensitivityMeasurement"),
     "._study": ("Study", "baselines", "build_study", "evaluate",
                 "liability_duration", "measure_sensitivities", "run_alm", "scenarios", "train_policy"),

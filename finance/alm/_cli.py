@@ -1,4 +1,4 @@
-"""CLI verbs of the pension-fund ALM study: `snapo alm` and `snapo bench alm`.
+"""CLI verbs of the pension-fund ALM study: `snapo alm`, `snapo bench alm` and `snapo report alm`.
 
 Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` stays quick.
 """
@@ -28,8 +28,20 @@ def _bench(args) -> int:
     return 0
 
 
+def _report(args) -> int:
+    from snapo_ode.cli import publish_report
+
+    from ._report import alm_report, build_alm_report, report_provenance
+
+    settings = dict(n_paths=args.paths, horizon_months=args.horizon_months, train_steps=args.train_steps,
+                    train_paths=args.train_paths, bump=not args.no_bump, seed=args.seed)
+    data = build_alm_report(args.risk_factors, progress=args.progress, checkpoint_path=args.checkpoint,
+                            resume=args.resume, **settings)
+    return publish_report(args, alm_report(data, report_provenance(args.risk_factors, settings, args.command_line)))
+
+
 def register_alm(cli: CommandLine) -> None:
-    """Add `snapo alm` and `snapo bench alm`."""
+    """Add `snapo alm`, `snapo bench alm` and `snapo report alm`."""
     parser = cli.command("alm", "pension-fund ALM: train the rebalancing policy and report the "
                                 "sensitivities to every risk factor (one reverse pass)")
     parser.add_argument("--risk-factors", type=int, default=100, metavar="N",
@@ -53,3 +65,15 @@ def register_alm(cli: CommandLine) -> None:
     bench.add_argument("--horizon-months", type=int, default=120, metavar="H")
     bench.add_argument("--repeats", type=int, default=3, help="timed runs per method")
     bench.set_defaults(handler=_bench)
+
+    report = cli.report("alm", "the fund's risk report: funding ratio and objective of the trained policy against "
+                               "fixed mixes, and the key-rate, inflation, equity and spread sensitivity ladder "
+                               "(one reverse pass each)")
+    report.add_argument("--risk-factors", type=int, default=100, metavar="N", help="reported risk factors, >= 9")
+    report.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths of the evaluation (default 1000)")
+    report.add_argument("--horizon-months", type=int, default=120, metavar="H", help="horizon in months (default 120)")
+    report.add_argument("--train-steps", type=int, default=300, metavar="S", help="policy training steps (default 300)")
+    report.add_argument("--train-paths", type=int, default=256, help="paths per training step")
+    report.add_argument("--no-bump", action="store_true", help="skip the check of the adjoint against central bumps")
+    add_training_options(report)
+    report.set_defaults(handler=_report)

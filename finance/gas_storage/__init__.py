@@ -21,6 +21,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                 "stochastic_scene"),
     "._penalty": ("AbstractInnovationBasis", "AbstractPenalty", "RegressionPenalty", "ShockHermite", "SpotCalls",
                   "SpotPowers", "fit_penalty"),
+    "._report": ("build_gas_report", "gas_report"),
     "._results": ("LSMCComparison", "StorageStudy", "standard_error"),
     "._study": ("StudySettings", "constraint_violation", "evaluation_shocks", "run_study"),
     "._versus_lsmc": ("LSMC_KEY", "compare_with_lsmc", "lsmc_fit_shocks"),

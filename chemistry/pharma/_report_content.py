@@ -1,0 +1,202 @@
+"""What the pharma report shows, in reading order: an executive summary, the process and its
+specifications, the nominal CQAs, the sensitivities, the design space and the methods. Every
+number is a `Value` (a path into the report's JSON); the core renders and prints it."""
+
+from snapo_ode import Bullets, Figure, Heading, Highlights, Paragraph, Section, Table, Value
+
+from ._ranges import CPP_NAMES, CQA_NAMES
+from ._report_figures import design_space_figure, profile_figure, tornado_figure
+
+V = Value
+IMPACT_WORDS = {"high": "high: can leave the spec within the PAR", "medium": "medium", "low": "low"}
+
+
+def _range(path, fmt=".5g") -> tuple:
+    return (V((*path, 0), fmt), "\u00a0\u2013\u00a0", V((*path, 1), fmt))
+
+
+def executive_summary(data: dict) -> Section:
+    space, summary = data["design_space"], data["summary"]
+    x, y = space["x"], space["y"]
+    ds = ("design_space",)
+    findings = [Paragraph((
+        "At the operating point every CQA meets its specification: ", V(("summary", "all_specs_met")),
+        ". The CQA nearest its limit is ", V(("summary", "closest_cqa")), ", at ",
+        V(("summary", "cqas", summary["closest_cqa"], "relative_margin"), ".1%"), " of the limit from it. "
+        "Under the stated uncertainty of the rate constants, the probability that every CQA is within its "
+        "specification is ", V((*ds, "operating_probability"), ".4f"), " at the operating point and at least ",
+        V((*ds, "nor_min_probability"), ".4f"), " over the normal operating ranges of ", x, " and ", y,
+        "; the design space (probability at least ", V((*ds, "level"), "g"), ") covers ",
+        V((*ds, "fraction_meeting_level"), ".0%"), " of their proven acceptable ranges."), "finding")]
+    cards = Highlights((
+        ("P(all specs) at the operating point", V((*ds, "operating_probability"), ".4f"), ("surrogate map",)),
+        ("Least P(all specs) over the NOR box", V((*ds, "nor_min_probability"), ".4f"),
+         ("level ", V((*ds, "level"), "g"))),
+        ("Map against full Monte Carlo", V((*ds, "verification", "max_difference_over_se"), ".2f"),
+         ("largest difference in standard errors, over ", V((*ds, "verification", "samples"), "d"), " draws at each of ",
+          V(("design_space", "verification_count"), "d"), " points")),
+        ("Sensitivities against central differences", V(("verification", "max_rel_diff_fd"), ".1e"),
+         ("largest relative difference, CPP block",)),
+        ("R1 against Cantera", V(("verification", "cantera_r1_amounts"), ".1e"),
+         ("largest relative difference of the outlet amounts",)),
+        ("Solver error against the reference", V(("verification", "reference_rel_error"), ".1e"),
+         ("sensitivities, relative",)),
+    ))
+    impact_rows = tuple((cqa, *((V(("summary", "impact", cqa, cpp, "grade")), " (",
+                                 V(("summary", "impact", cqa, cpp, "fraction_of_margin"), ".2f"), ")")
+                                for cpp in CPP_NAMES)) for cqa in CQA_NAMES)
+    impact = Table(("CQA", *CPP_NAMES), impact_rows, (
+        "Which CPPs matter for which CQA: the largest linearised change of the CQA over the CPP's PAR, as a "
+        "fraction of the CQA's margin to its specification (high from ", V(("summary", "impact_thresholds", "high"), "g"),
+        ", medium from ", V(("summary", "impact_thresholds", "medium"), "g"), ")"))
+    ranges = []
+    for name in CPP_NAMES:
+        path = ("operating_point", name)
+        mapped = name in (x, y)
+        edges = ("design_space", "edges", name)
+        ranges.append((name, _range((*path, "nor")), _range((*path, "par")),
+                       _range((*edges, "interval")) if mapped and space["edges"][name]["interval"] else "not mapped",
+                       V((*edges, "edge_low"), ".5g") if mapped else "-", V((*edges, "edge_high"), ".5g") if mapped else "-",
+                       V((*edges, "margin_below_nor"), ".3g") if mapped else "-",
+                       V((*edges, "margin_above_nor"), ".3g") if mapped else "-"))
+    ranges_table = Table(("CPP", "NOR", "PAR", "design space along the line", "edge below", "edge above",
+                          "NOR to edge below", "NOR to edge above"), tuple(ranges), (
+        "Proven acceptable ranges and the margin to the edge of failure (P(all specs) = level) along the grid lines "
+        "through the operating point; n/a: no edge inside the PAR",))
+    return Section("Executive summary", (cards, *findings, impact, ranges_table, Paragraph((
+        "Verification: the map agrees with full Monte Carlo at every verification point within one standard "
+        "error: ", V((*ds, "verification", "all_within_se")), ". See the design space and the methods.",), "note")))
+
+
+def process_section(data: dict) -> Section:
+    cpps = tuple((name, V(("operating_point", name, "unit")), V(("operating_point", name, "value"), ".6g"),
+                  V(("operating_point", name, "nominal"), ".6g"), _range(("operating_point", name, "nor"), ".6g"),
+                  _range(("operating_point", name, "par"), ".6g"), V(("operating_point", name, "description")))
+                 for name in CPP_NAMES)
+    specs = tuple((name, V(("specifications", name, "unit")), V(("specifications", name, "spec")),
+                   V(("specifications", name, "description"))) for name in CQA_NAMES)
+    return Section("Process parameters and specifications", (
+        Table(("CPP", "unit", "value", "nominal", "NOR", "PAR", "description"), cpps,
+              ("Critical process parameters (CPPs) at the operating point",)),
+        Table(("CQA", "unit", "specification", "description"), specs, ("Critical quality attributes (CQAs)",))))
+
+
+def nominal_section(data: dict) -> Section:
+    rows = tuple((name, V(("summary", "cqas", name, "value"), ".6g"), V(("specifications", name, "spec")),
+                  V(("summary", "cqas", name, "margin"), ".4g"), V(("summary", "cqas", name, "relative_margin"), ".1%"),
+                  V(("summary", "cqas", name, "meets"))) for name in CQA_NAMES)
+    return Section("Nominal CQAs", (Table(("CQA", "value", "specification", "margin to the limit",
+                                           "margin, of the limit", "meets"), rows,
+                                          ("The CQAs at the operating point, nominal kinetics",)),))
+
+
+def sensitivity_section(data: dict) -> Section:
+    def matrix(key, caption):
+        return Table(("CQA", *CPP_NAMES), tuple((cqa, *(V(("sensitivities", key, cqa, cpp), ".5g") for cpp in CPP_NAMES))
+                                                for cqa in CQA_NAMES), caption)
+
+    return Section("Sensitivities", (
+        matrix("matrix", ("Absolute sensitivities d CQA / d CPP (CQA units per CPP unit), from ",
+                          V(("sensitivities", "passes"), "d"), " ", V(("sensitivities", "mode")), "-mode passes")),
+        matrix("normalized", ("Normalised sensitivities d ln CQA / d ln CPP",)),
+        Figure.from_matplotlib(tornado_figure(data), ("Tornado charts: the linearised change of each CQA when one CPP "
+                                                      "moves to either end of its PAR, the others at the operating point",),
+                               "tornado charts", width="100%"),
+        Paragraph(("Every CQA's sensitivity to every kinetic and physical parameter is in sensitivities.csv "
+                   "(absolute and normalised).",), "note")))
+
+
+def design_space_section(data: dict) -> Section:
+    space = data["design_space"]
+    ds = ("design_space",)
+    rows = tuple((V((*ds, "verification", "points", k, "x"), ".5g"), V((*ds, "verification", "points", k, "y"), ".5g"),
+                  V((*ds, "verification", "points", k, "probability_map"), ".4f"),
+                  V((*ds, "verification", "points", k, "probability_surrogate"), ".4f"),
+                  V((*ds, "verification", "points", k, "probability_mc"), ".4f"),
+                  V((*ds, "verification", "points", k, "se_mc"), ".4f"),
+                  V((*ds, "verification", "points", k, "disagreeing_draws"), "d"),
+                  V((*ds, "verification", "points", k, "within_se")))
+                 for k in range(len(space["verification"]["points"])))
+    return Section("Design space", (
+        Paragraph(("The probability that every CQA meets its specification when the uncertain rate constants vary "
+                   "(log-normal, standard deviation of ln k ", V((*ds, "sigma_log_rate"), "g"), "), on a grid of ",
+                   V((*ds, "grid_size"), "d"), " by ", V((*ds, "grid_size"), "d"), " points over the PARs of ",
+                   V((*ds, "x")), " and ", V((*ds, "y")), ", the other CPPs at the operating point. The black contour "
+                   "is the edge of the design space at probability ", V((*ds, "level"), "g"), "; dashed contours show "
+                   "where each CQA alone reaches that probability, so the CQA that sets each part of the edge can "
+                   "be read off."),),
+        Figure.from_matplotlib(design_space_figure(data), ("Design space: P(all specs) from the surrogate (",
+                                                             V((*ds, "surrogate_samples"), "d"), " draws), "
+                                                             "NOR and PAR boxes, and the points checked by full Monte "
+                                                             "Carlo",), "design-space map", width="78%"),
+        Figure.from_matplotlib(profile_figure(data), ("P(all specs) along the grid lines through the operating point; "
+                                                      "vertical red lines: the edges of failure",),
+                               "probability along the lines through the operating point", width="90%"),
+        Heading("Verification by full Monte Carlo"),
+        Paragraph(("The full model was run at ", V((*ds, "verification_count"), "d"), " grid points (the operating "
+                   "point, then points along the edge of failure spread over the map) on the first ",
+                   V((*ds, "verification", "samples"), "d"), " of the surrogate's draws. The surrogate on the same "
+                   "draws differs by at most ", V((*ds, "verification", "max_abs_difference"), ".4f"), ", which is ",
+                   V((*ds, "verification", "max_difference_over_se"), ".2f"), " standard errors of the Monte Carlo "
+                   "estimate; the map, on all its draws, is within ",
+                   V((*ds, "verification", "max_abs_map_minus_mc_over_se"), ".2f"), " standard errors of it."),),
+        Table((space["x"], space["y"], "map", "surrogate, same draws", "full Monte Carlo", "standard error",
+               "draws classified differently", "within one standard error"), rows,
+              ("Map and surrogate against the full model",), csv="design_space_verification.csv"),
+        Paragraph(("Standard error: ", V((*ds, "verification", "se_convention")), "."), "note")))
+
+
+def methods_section(data: dict) -> Section:
+    ds, ver = ("design_space",), ("verification",)
+    solver = tuple((key, V(("solver", key), "g")) for key in data["solver"])
+    checks = Table(("check", "result"), (
+        ("sensitivities (CPP block) against Richardson central differences, largest relative difference",
+         V((*ver, "max_rel_diff_fd"), ".2e")),
+        ("every parameter sensitivity against central differences", V((*ver, "max_rel_diff_fd_parameters"), ".2e")),
+        ("sensitivities against the reference solver (Kvaerno5 on every unit, tight tolerances)",
+         V((*ver, "reference_rel_error"), ".2e")),
+        ("every parameter sensitivity against the reference solver", V((*ver, "reference_rel_error_parameters"), ".2e")),
+        ("CQAs against the reference solver, relative", V((*ver, "reference_cqa_rel_error"), ".2e")),
+        ("rates of progress against Cantera, relative", V((*ver, "cantera_rates_of_progress"), ".2e")),
+        ("net production rates against Cantera, relative", V((*ver, "cantera_net_production"), ".2e")),
+        ("R1 outlet amounts against Cantera's reactor, relative", V((*ver, "cantera_r1_amounts"), ".2e")),
+        ("R1 outlet temperature against Cantera's reactor, relative", V((*ver, "cantera_r1_temperature"), ".2e")),
+        ("R1 stiffness ratio at the feed", V((*ver, "r1_stiffness_ratio"), ".3g"))), ("Verification evidence",))
+    timings = Table(("step", "seconds"), (
+        ("sensitivities, median of the timed calls", V(("timings", "seconds_median"), ".4g")),
+        ("sensitivities, compile (first call less the median)", V(("timings", "compile_seconds"), ".4g")),
+        ("sensitivity study with its checks", V(("timings", "study_seconds"), ".4g")),
+        ("design space: surrogate map", V(("timings", "design_space_surrogate_seconds"), ".4g")),
+        ("design space: full Monte Carlo", V(("timings", "design_space_monte_carlo_seconds"), ".4g")),
+        ("everything computed for this report", V(("timings", "total_seconds"), ".4g"))), ("Timings",))
+    return Section("Methods", (
+        Heading("Model"),
+        Paragraph(("The chain R1 (jacketed plug-flow synthesis, energy balance) to R2 (isothermal hold) to a seeded "
+                   "cooling crystallizer (moments of the size distribution) to a filter and a dryer (first-order "
+                   "solvent removal, degradation in the solid) is one differentiable program: each unit is an ODE "
+                   "solve, the kinetics are read from the Cantera YAML mechanism whose SHA-256 is under Provenance. "
+                   "The CQAs are those of the dried product."),),
+        Heading("Sensitivities"),
+        Paragraph(("The Jacobian of the CQAs with respect to every input (CPPs, rate parameters, physical "
+                   "parameters) is taken in ", V(("sensitivities", "mode")), " mode, ",
+                   V(("sensitivities", "passes"), "d"), " passes, and checked against Richardson-extrapolated "
+                   "central differences at tight tolerances and against a reference solve with a different method."),),
+        Heading("Design space"),
+        Bullets((("Uncertain inputs: ", V((*ds, "uncertain_text")), "; each ln k normal around its value with "
+                  "standard deviation ", V((*ds, "sigma_log_rate"), "g"), ", independent."),
+                 ("Surrogate: ", V((*ds, "surrogate")), "; curvature grid ", V((*ds, "curvature_points"), "d"), " by ",
+                  V((*ds, "curvature_points"), "d"), "."),
+                 ("Map: ", V((*ds, "surrogate_samples"), "d"), " draws, the same at every grid point (seed ",
+                  V((*ds, "seed"), "d"), ")."),
+                 ("Verification: the full model by Monte Carlo on the first ", V((*ds, "verification", "samples"), "d"),
+                  " draws at the points listed in the design-space section."),
+                 ("Edges of failure: where the probability crosses the level, linear between grid points, along the "
+                  "grid lines through the operating point.",))),
+        Heading("Solver settings and accuracy"),
+        Table(("setting", "value"), solver, ("Solver settings of every unit",)),
+        checks, timings))
+
+
+def sections(data: dict) -> tuple[Section, ...]:
+    return (executive_summary(data), process_section(data), nominal_section(data), sensitivity_section(data),
+            design_space_section(data), methods_section(data))

@@ -1,0 +1,107 @@
+"""The pharma report's figures (matplotlib, drawn from the report's JSON document only): tornado
+charts, the design-space map with its contour, NOR and PAR boxes and verification points, and
+the probability along the lines through the operating point."""
+
+import numpy as np
+
+from ._ranges import CPP_NAMES, CQA_NAMES
+
+CQA_COLOURS = dict(zip(CQA_NAMES, ("#d62728", "#9467bd", "#ff7f0e", "#17becf", "#8c564b"), strict=True))
+
+
+def tornado_figure(doc: dict):
+    """Per CQA, the linearised change over each CPP's PAR (low and high end), largest first."""
+    import matplotlib.pyplot as plt
+
+    study, cpps, specs = doc["sensitivities"], doc["operating_point"], doc["specifications"]
+    figure, grid = plt.subplots(3, 2, figsize=(9.0, 5.6))
+    axes = grid.ravel()
+    axes[-1].axis("off")
+    for axis, cqa in zip(axes, CQA_NAMES):
+        lows = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][0] - cpps[n]["value"]) for n in CPP_NAMES])
+        highs = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][1] - cpps[n]["value"]) for n in CPP_NAMES])
+        order = np.argsort(np.abs(highs - lows))
+        names = [CPP_NAMES[i] for i in order]
+        axis.barh(names, lows[order], color="#4c78a8", label="CPP at the low end of its PAR")
+        axis.barh(names, highs[order], color="#f58518", label="CPP at the high end of its PAR")
+        axis.axvline(0, color="k", lw=0.8)
+        axis.set_title(f"{cqa} [{specs[cqa]['unit']}], spec {specs[cqa]['spec']}", fontsize=8.5, loc="left")
+        axis.tick_params(labelsize=7.5)
+    handles, labels = axes[0].get_legend_handles_labels()
+    axes[-1].legend(handles, labels, fontsize=8, loc="center", frameon=False)
+    figure.tight_layout()
+    return figure
+
+
+def design_space_figure(doc: dict):
+    """P(all specs) on the grid, the contour at the level (and each CQA's own), NOR and PAR
+    boxes, the operating point and the Monte Carlo verification points."""
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Rectangle
+
+    space, cpps = doc["design_space"], doc["operating_point"]
+    x, y, level = space["x"], space["y"], space["level"]
+    xs, ys = np.array(space["x_values"]), np.array(space["y_values"])
+    probability = np.array(space["probability"])
+    figure, axis = plt.subplots(figsize=(6.4, 4.9))
+    # x is the CPP of the first index: plot it on the horizontal axis.
+    mesh = axis.contourf(xs, ys, probability.T, levels=np.linspace(0, 1, 21), cmap="RdYlGn", vmin=0, vmax=1)
+    handles = []
+    for cqa in CQA_NAMES:
+        by_cqa = np.array(space["probability_by_cqa"][cqa]).T
+        if by_cqa.min() < level < by_cqa.max():
+            axis.contour(xs, ys, by_cqa, levels=[level], colors=[CQA_COLOURS[cqa]], linewidths=1.2, linestyles="--")
+            handles.append(Line2D([], [], color=CQA_COLOURS[cqa], ls="--", label=f"P({cqa} in spec) = {level:g}"))
+    if probability.min() < level < probability.max():
+        axis.contour(xs, ys, probability.T, levels=[level], colors="k", linewidths=2.2)
+    handles.insert(0, Line2D([], [], color="k", lw=2.2, label=f"P(all specs) = {level:g}: edge of the design space"))
+    for key, style in (("nor", dict(ec="#08306b", lw=1.8, ls="-")), ("par", dict(ec="#555555", lw=1.2, ls=":"))):
+        (x0, x1), (y0, y1) = cpps[x][key], cpps[y][key]
+        axis.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, **style))
+        handles.append(Line2D([], [], color=style["ec"], ls=style["ls"], lw=style["lw"], label=key.upper()))
+    points = space["verification"]["points"]
+    axis.scatter([p["x"] for p in points], [p["y"] for p in points], s=36, facecolors="white", edgecolors="k",
+                 zorder=5)
+    handles.append(Line2D([], [], marker="o", ls="", mfc="white", mec="k", label="full Monte Carlo check"))
+    axis.scatter([cpps[x]["value"]], [cpps[y]["value"]], marker="*", s=160, color="#08306b", zorder=6)
+    handles.append(Line2D([], [], marker="*", ls="", color="#08306b", ms=11, label="operating point"))
+    axis.set_xlabel(f"{x} [{cpps[x]['unit']}]")
+    axis.set_ylabel(f"{y} [{cpps[y]['unit']}]")
+    axis.set_xlim(xs[0], xs[-1])
+    axis.set_ylim(ys[0], ys[-1])
+    figure.colorbar(mesh, ax=axis, label="P(every CQA within its specification)", shrink=0.9, ticks=np.linspace(0, 1, 6))
+    axis.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.13), ncol=2, frameon=False)
+    figure.tight_layout()
+    return figure
+
+
+def profile_figure(doc: dict):
+    """P(all specs) along the grid lines through the operating point, with the level, the NOR
+    and PAR, and the edges of failure."""
+    import matplotlib.pyplot as plt
+
+    space, cpps = doc["design_space"], doc["operating_point"]
+    x, y, level = space["x"], space["y"], space["level"]
+    probability = np.array(space["probability"])
+    xs, ys = np.array(space["x_values"]), np.array(space["y_values"])
+    i = int(np.argmin(np.abs(xs - cpps[x]["value"])))
+    j = int(np.argmin(np.abs(ys - cpps[y]["value"])))
+    figure, axes = plt.subplots(1, 2, figsize=(7.2, 2.5), sharey=True)
+    for axis, name, values, line in ((axes[0], x, xs, probability[:, j]), (axes[1], y, ys, probability[i, :])):
+        axis.axvspan(*cpps[name]["nor"], color="#c6dbef", alpha=0.7, lw=0, label="NOR")
+        axis.plot(values, line, color="k", lw=1.5, marker=".", ms=4, label="P(all specs)")
+        axis.axhline(level, color="#b2182b", lw=1, ls="--", label=f"level {level:g}")
+        for edge in ("edge_low", "edge_high"):
+            value = space["edges"][name][edge]
+            if value is not None:
+                axis.axvline(value, color="#b2182b", lw=1)
+        axis.axvline(cpps[name]["value"], color="#08306b", lw=1, ls=":")
+        axis.set_xlim(*cpps[name]["par"])
+        axis.set_xlabel(f"{name} [{cpps[name]['unit']}] (PAR shown)", fontsize=8)
+        axis.tick_params(labelsize=7.5)
+    axes[0].set_ylabel("P(all specs)", fontsize=8)
+    axes[0].set_ylim(-0.02, 1.02)
+    axes[1].legend(fontsize=6.5, loc="lower left", frameon=False)
+    figure.tight_layout()
+    return figure

@@ -1,0 +1,127 @@
+"""`snapo report alm --out DIR`: the pension fund's risk report. The funding ratio and the
+objective of the trained policy against fixed mixes on the same fresh paths, and a sensitivity
+ladder: the objective's and the expected funding ratio's sensitivity to every key rate, to
+inflation, to the equity indices and to the credit spread, each from one reverse pass, scaled to
+a basis point (rates) or a 1% move (equity levels). This module computes the JSON's data; the
+content is in `_report_content`; the core writes the files."""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+import snapo_ode
+from snapo_ode import Report, value_and_sensitivities
+
+from ._assets import zero_rate
+from ._factors import factor_names, named_sensitivities
+from ._market import ASSETS, MONTH
+from ._model import simulate
+from ._study import baselines, build_study, run_alm
+
+BASIS_POINT = 1e-4
+# The ladder's groups: (group, shift per entry, the shift in words). Rates move by a basis point;
+# an equity level (1 at the reference date) by 1% of itself.
+LADDER = (("key_rates", BASIS_POINT, "+1 bp"), ("inflation", BASIS_POINT, "+1 bp"),
+          ("spread", BASIS_POINT, "+1 bp"), ("equity_levels", 0.01, "+1%"))
+FUNDING_RATIOS = np.linspace(0.7, 1.5, 33)  # of the policy map
+
+
+@eqx.filter_jit
+def _mean_funding_ratio_and_gradient(problem, policy, reported, fixed, shocks):
+    def mean_funding_ratio(reported):
+        outcome = simulate(problem, policy, {**fixed, **reported}, shocks, smooth_constraints=True)
+        return jnp.mean(outcome.funding_ratio)
+
+    return value_and_sensitivities(mean_funding_ratio, reported)
+
+
+def policy_map(study, policy) -> dict:
+    """The weights each policy chooses at the start against the funding ratio, the market at its
+    initial state: asset -> list over FUNDING_RATIOS."""
+    factors = {**study.fixed, **study.reported}
+    rates = jnp.asarray(factors["key_rates"])[None, :]
+    n = FUNDING_RATIOS.size
+    features = jnp.stack([jnp.zeros(n), jnp.asarray(FUNDING_RATIOS),
+                          jnp.full(n, zero_rate(rates, study.market, MONTH)[0]), jnp.full(n, rates[0, -1]),
+                          jnp.full(n, factors["inflation"]), jnp.full(n, factors["spread"])], axis=1)
+    weights = np.asarray(policy(features))
+    return {asset: weights[:, k].tolist() for k, asset in enumerate(ASSETS)}
+
+
+def terminal_funding_ratios(study, policies: dict, shocks) -> dict:
+    """Each policy's funding ratio at the horizon on every path (exact constraints), as quantiles
+    (1% to 99%) for the distribution figure."""
+    factors = {**study.fixed, **study.reported}
+    run = eqx.filter_jit(lambda policy: simulate(study.problem, policy, factors, shocks, smooth_constraints=False))
+    levels = np.linspace(0.01, 0.99, 99)
+    return {name: np.quantile(np.asarray(run(policy).funding_ratio), levels).tolist()
+            for name, policy in policies.items()}
+
+
+def ladder(objective: dict, funding_ratio: dict, names: dict, reported) -> dict:
+    """group -> rows {factor, shift, objective (change of J), funding_ratio (change of E[FR_T])}
+    for the shift of LADDER, plus each group's total (a parallel shift of every entry)."""
+    out = {}
+    for group, shift, words in LADDER:
+        if group not in reported:
+            continue
+        rows = [{"factor": name, "shift": words, "objective": objective[name] * shift,
+                 "funding_ratio": funding_ratio[name] * shift} for name in names[group]]
+        out[group] = {"rows": rows, "shift": words,
+                      "total_objective": float(sum(r["objective"] for r in rows)),
+                      "total_funding_ratio": float(sum(r["funding_ratio"] for r in rows))}
+    return out
+
+
+def build_alm_report(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int = 120,
+                     train_steps: int = 300, train_paths: int = 256, bump: bool = True, seed: int = 0,
+                     progress: bool = True, checkpoint_path=None, resume: bool = False) -> dict:
+    """Every number of the ALM report, as the JSON document's data (see docs/alm.md)."""
+    import time
+
+    start = time.perf_counter()
+    result = run_alm(n_risk_factors, n_paths=n_paths, horizon_months=horizon_months, train_steps=train_steps, bump=bump,
+                     train_paths=train_paths, seed=seed, progress=progress, checkpoint_path=checkpoint_path,
+                     resume=resume)
+    study = build_study(n_risk_factors, horizon_months=horizon_months)
+    timing, (ratio, gradient) = snapo_ode.time_function(
+        _mean_funding_ratio_and_gradient, study.problem, result.policy, study.reported, study.fixed, result.shocks,
+        repeats=3)
+    funding_sensitivities = named_sensitivities(gradient, study.layout, study.market)
+    names = factor_names(study.layout, study.market)
+    mixes = baselines(study)
+    policies = {"trained policy" if result.trained else "untrained policy": result.policy, **mixes}
+    data = result.to_json()
+    data.update(
+        funding_ratio_mean_smooth=float(ratio),
+        funding_ratio_sensitivities=funding_sensitivities,
+        funding_ratio_adjoint_seconds=timing.median_seconds,
+        ladder=ladder(data["sensitivities"], funding_sensitivities, names, study.reported),
+        key_tenors=[float(t) for t in study.market.tenors],
+        factor_groups={group: names[group] for group in study.layout.reported},
+        policy_map={"funding_ratio": FUNDING_RATIOS.tolist(),
+                    "weights": {name: policy_map(study, policy) for name, policy in policies.items()}},
+        terminal_funding_ratio_quantiles=terminal_funding_ratios(study, policies, result.shocks),
+        policy_names=list(policies),
+        effects_text=", ".join(data["effects"]),
+        report_seconds=time.perf_counter() - start,
+    )
+    return data
+
+
+def alm_report(data: dict, provenance: dict) -> Report:
+    from ._report_content import sections
+
+    return Report(name="alm", title="Pension fund ALM: funding ratio, policy and sensitivity report", data=data,
+                  provenance=provenance, sections=sections(data),
+                  subtitle=("Risk factors ", snapo_ode.Value(("n_risk_factors",), "d"), ", Monte Carlo paths ",
+                            snapo_ode.Value(("paths",), ",d"), ", horizon ", snapo_ode.Value(("horizon_months",), "d"),
+                            " months; computed at ", snapo_ode.Value(("provenance", "timestamp_utc")), "."),
+                  csv={"sensitivities.csv": [["factor", "group", "objective_sensitivity", "funding_ratio_sensitivity"]]
+                       + [[name, group, data["sensitivities"][name], data["funding_ratio_sensitivities"][name]]
+                          for group, names in data["factor_groups"].items() for name in names]})
+
+
+def report_provenance(n_risk_factors: int, settings: dict, command=None) -> dict:
+    return snapo_ode.provenance({"settings": settings, "risk_factors": n_risk_factors}, command=command)
+

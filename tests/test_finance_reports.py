@@ -1,0 +1,86 @@
+"""`snapo report alm` and `snapo report gas` at small sizes: every number in the HTML is the JSON's
+and so is every number in the PDF (printed from the HTML by headless Chromium), under the same
+sections; the ladders add up; the gas report reads the LSMC comparison's optional fields only
+when present."""
+
+import csv
+
+import pytest
+
+import snapo_ode
+from snapo_ode.cli import main
+
+from report_checks import check_html, check_pdf
+
+HAS_CHROMIUM = snapo_ode.find_chromium() is not None
+
+
+@pytest.fixture(scope="module")
+def alm_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("alm") / "report"
+    assert main(["report", "alm", "--out", str(out), "--risk-factors", "20", "--paths", "64", "--horizon-months", "24",
+                 "--train-steps", "5", "--train-paths", "32", "--no-progress"]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def gas_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("gas") / "report"
+    assert main(["report", "gas", "--out", str(out), "--train-steps", "30", "--no-progress"]) == 0
+    return out
+
+
+def test_alm_report(alm_dir):
+    doc, page = check_html(alm_dir)
+    assert doc["report"]["sections"] == ["Summary", "Funding ratio and objective", "Sensitivity ladder",
+                                         "Policy behaviour", "Methods", "Provenance"]
+    assert set(doc["ladder"]) == {"key_rates", "inflation", "spread", "equity_levels"}
+    for group in doc["ladder"].values():
+        assert group["total_objective"] == pytest.approx(sum(r["objective"] for r in group["rows"]))
+    key_rates = doc["ladder"]["key_rates"]["rows"]
+    assert key_rates[0]["objective"] == pytest.approx(doc["sensitivities"][key_rates[0]["factor"]] * 1e-4)
+    assert doc["max_rel_diff"] <= 1e-5  # the adjoint against central bumps
+    assert set(doc["baselines"]) == {"sixty_forty", "liability_matching"} and len(doc["policy_names"]) == 3
+    rows = list(csv.reader((alm_dir / "sensitivities.csv").open()))
+    assert len(rows) == 1 + doc["n_risk_factors"]
+    assert not (alm_dir.parent / "report.checkpoint.eqx").is_dir()
+    if HAS_CHROMIUM:
+        check_pdf(alm_dir, doc, page)
+
+
+def test_gas_report(gas_dir):
+    doc, page = check_html(gas_dir)
+    assert doc["report"]["sections"] == ["Summary", "Value", "Monthly delta ladder", "Schedule",
+                                         "Facility sensitivities", "Methods", "Provenance"]
+    ladder = doc["monthly_ladder"]
+    assert len(ladder) == 12 and ladder[0]["first_day"] == 0 and ladder[-1]["last_day"] == 364
+    assert sum(r["delta"] for r in ladder) == pytest.approx(sum(doc["deltas"]))
+    assert not doc["lsmc_run"] and not doc["has_dual_bound"]
+    assert len(doc["facility_sensitivities"]) == len(doc["parameter_sensitivities"])
+    if HAS_CHROMIUM:
+        check_pdf(gas_dir, doc, page)
+
+
+def test_gas_report_reads_the_optional_lsmc_fields_when_present():
+    """The report's content over an LSMC comparison with the dual bound (fields another change adds)."""
+    import datetime
+
+    from finance.gas_storage._report import ladder, months
+    from finance.gas_storage._report_content import sections
+
+    assert months(365, datetime.date(2005, 7, 1))[0] == {"month": "2005-07", "first_day": 0, "last_day": 30}
+    data = {"deltas": [1.0] * 59, "lp_envelope_deltas": [2.0] * 59, "lsmc_pathwise_deltas": [3.0] * 59,
+            "schedule": {"injection": [0.0] * 59, "withdrawal": [1.0] * 59, "inventory": [5.0] * 60}}
+    rows = ladder(data, None)
+    assert [r["lsmc_delta"] for r in rows] == [93.0, 84.0] and rows[1]["withdrawal"] == 28.0
+    titles = [s.title for s in sections({**_gas_stub(), "monthly_ladder": rows})]
+    assert "Value" in titles
+
+
+def _gas_stub() -> dict:
+    stub = {key: 1.0 for key in ("value_hard", "value_smooth", "smoothing_gap", "intrinsic_lp", "hard_to_lp_ratio",
+                                 "max_constraint_violation", "lsmc_out_of_sample", "lsmc_se", "dual_upper_bound",
+                                 "dual_upper_bound_se", "snapo_gap", "lsmc_gap")}
+    stub.update(lsmc_run=True, has_dual_bound=True, largest_month={"month": "m", "delta": 1.0}, forward_curve=[1.0] * 59,
+                schedule={"inventory": [1.0] * 60}, lp_schedule={"inventory": [1.0] * 60}, facility_sensitivities=[])
+    return stub
