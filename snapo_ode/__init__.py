@@ -15,6 +15,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._jaxpr": ("count_operations",),
     "._lazy": ("lazy_exports",),
     "._ode": ("SolverFailed", "call_checked", "diffeqsolve_checked", "raise_if_failed"),
+    "._periodic": ("Periodic", "cosine_square", "wrap", "wrapped_square"),
     "._policy": ("MLPPolicy", "load_policy", "save_policy"),
     "._results": ("Result", "field", "jsonable"),
     "._rollout": ("DiscreteStepper", "RolloutMethod", "rollout"),
