@@ -11,6 +11,7 @@ from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import optax
 from tqdm.auto import tqdm
 
@@ -83,6 +84,7 @@ def train(
     checkpoint_every: int = 100,
     progress: bool = True,
     description: str = "training",
+    pass_step: bool = False,
 ) -> TrainResult:
     """Minimise `loss_fn` over the inexact array leaves of `params`.
 
@@ -90,6 +92,9 @@ def train(
     - `loss_fn`: `loss_fn(params) -> (loss, metrics)` with `metrics` a dict of scalars (a
       `"value"` entry is shown in the progress bar); with `key`, `loss_fn(params, key)` gets a
       fresh key each step (`jax.random.fold_in(key, step)`), e.g. to draw new Monte Carlo paths.
+    - `pass_step`: also pass the step number (0-based, a traced integer, so nothing recompiles),
+      last: `loss_fn(params, [key,] step)`, for a curriculum (a horizon, a sharpness, a gradient
+      decay that changes over the training).
     - `steps`: the maximum number of steps.
     - `optimizer`: any `optax.GradientTransformation` (default: `default_optimizer`).
     - `patience`, `min_delta`: stop when the loss has not improved by `min_delta` for
@@ -122,6 +127,8 @@ def train(
     try:
         for step in range(steps):
             key_args = () if key is None else (jax.random.fold_in(key, step),)
+            if pass_step:
+                key_args += (jnp.asarray(step, jnp.int32),)
             start = time.perf_counter()
             new_params, opt_state, loss, metrics = update(params, opt_state, *key_args)
             loss = float(loss)
