@@ -30,8 +30,8 @@ class TrainingDiverged(FloatingPointError):
 
 
 class TrainResult(NamedTuple):
-    """`params`: the parameters with the best loss seen; `history`: per step, the loss and every
-    metric; `steps_run`; `stopped_early`; `best_loss`; `seconds`: wall time of all steps after
+    """`params`: the parameters with the best loss seen (or the last, see `train`); `history`: per
+    step, the loss and every metric; `steps_run`; `stopped_early`; `best_loss`; `seconds`: wall time of all steps after
     the first; `compile_seconds`: the first step's time minus a typical step's."""
 
     params: Any
@@ -85,6 +85,7 @@ def train(
     progress: bool = True,
     description: str = "training",
     pass_step: bool = False,
+    keep_best: bool = True,
 ) -> TrainResult:
     """Minimise `loss_fn` over the inexact array leaves of `params`.
 
@@ -95,6 +96,10 @@ def train(
     - `pass_step`: also pass the step number (0-based, a traced integer, so nothing recompiles),
       last: `loss_fn(params, [key,] step)`, for a curriculum (a horizon, a sharpness, a gradient
       decay that changes over the training).
+    - `keep_best`: return (and checkpoint) the parameters with the lowest loss seen; `False`: the
+      parameters after the last step (on divergence, the last ones with a finite loss). When
+      every step draws a fresh random batch, the lowest batch loss marks a lucky batch more than
+      the best parameters.
     - `steps`: the maximum number of steps.
     - `optimizer`: any `optax.GradientTransformation` (default: `default_optimizer`).
     - `patience`, `min_delta`: stop when the loss has not improved by `min_delta` for
@@ -121,6 +126,11 @@ def train(
 
     history: dict[str, list[float]] = {"loss": []}
     best_loss, best_params, since_best = math.inf, params, 0
+    finite_params = params  # the last parameters whose loss was finite
+
+    def kept():
+        return best_params if keep_best else params
+
     stopped_early = False
     step_times: list[float] = []
     bar = tqdm(total=steps, desc=description, disable=not progress, leave=False)
@@ -134,14 +144,15 @@ def train(
             loss = float(loss)
             step_times.append(time.perf_counter() - start)
             if not math.isfinite(loss):
+                saved = best_params if keep_best else finite_params
                 if checkpoint_path is not None:
-                    save_checkpoint(checkpoint_path, best_params, {"step": step, "best_loss": best_loss})
+                    save_checkpoint(checkpoint_path, saved, {"step": step, "best_loss": best_loss})
                 raise TrainingDiverged(
                     f"{description}: the loss became {loss} at step {step} (last finite loss "
                     f"{history['loss'][-1] if history['loss'] else 'none'}); lower the learning "
                     "rate or the smoothing sharpness, or check the inputs.",
                     step,
-                    best_params,
+                    saved,
                 )
             history["loss"].append(loss)
             for name, value in metrics.items():
@@ -150,25 +161,24 @@ def train(
                 best_loss, best_params, since_best = loss, params, 0
             else:
                 since_best += 1
-            params = new_params
+            finite_params, params = params, new_params
             bar.update(1)
             postfix = {"loss": f"{loss:.6g}"}
             if "value" in metrics:
                 postfix["value"] = f"{float(metrics['value']):.6g}"
             bar.set_postfix(postfix, refresh=False)
             if checkpoint_path is not None and (step + 1) % checkpoint_every == 0:
-                save_checkpoint(checkpoint_path, best_params, {"step": step, "best_loss": best_loss})
+                save_checkpoint(checkpoint_path, kept(), {"step": step, "best_loss": best_loss})
             if patience is not None and since_best >= patience:
                 stopped_early = True
                 break
     finally:
         bar.close()
     if checkpoint_path is not None:
-        save_checkpoint(checkpoint_path, best_params,
-                        {"step": len(history["loss"]) - 1, "best_loss": best_loss})
+        save_checkpoint(checkpoint_path, kept(), {"step": len(history["loss"]) - 1, "best_loss": best_loss})
     typical = sorted(step_times[1:])[len(step_times[1:]) // 2] if len(step_times) > 1 else 0.0
     return TrainResult(
-        params=best_params,
+        params=kept(),
         history=history,
         steps_run=len(history["loss"]),
         stopped_early=stopped_early,
