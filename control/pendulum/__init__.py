@@ -12,4 +12,7 @@ from snapo_ode import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._gymnasium": ("ENV_ID", "gymnasium_returns", "require_gymnasium"),
     "._model": ("PERIODIC", "STATE", "TAU", "Pendulum", "features", "features_from_observation"),
+    "._results": ("PendulumStudy",),
+    "._study": ("run_pendulum",),
+    "._training": ("TrainingSettings", "episode_costs", "new_policy", "torque", "train_policy"),
 })
