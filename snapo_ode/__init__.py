@@ -17,6 +17,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._lazy": ("lazy_exports",),
     "._ode": ("SolverFailed", "call_checked", "diffeqsolve_checked", "raise_if_failed"),
     "._pdf": ("PdfUnavailable", "count_pages", "find_chromium", "print_pdf"),
+    "._periodic": ("Periodic", "cosine_square", "wrap", "wrapped_square"),
     "._policy": ("MLPPolicy", "load_policy", "policy_bytes", "save_policy"),
     "._provenance": ("git_state", "input_digest", "provenance"),
     "._report": ("WrittenReport", "csv_bytes", "write_report"),

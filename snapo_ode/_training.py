@@ -12,6 +12,7 @@ from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import optax
 from tqdm.auto import tqdm
 
@@ -100,6 +101,8 @@ def train(
     callback: Callable | None = None,
     progress: bool = True,
     description: str = "training",
+    pass_step: bool = False,
+    keep_best: bool = True,
 ) -> TrainResult:
     """Minimise `loss_fn` over the inexact array leaves of `params`.
 
@@ -107,10 +110,17 @@ def train(
     - `loss_fn`: `loss_fn(params) -> (loss, metrics)` with `metrics` a dict of scalars (a
       `"value"` entry is shown in the progress bar); with `key`, `loss_fn(params, key)` gets a
       fresh key each step (`jax.random.fold_in(key, step)`), e.g. to draw new Monte Carlo paths.
+    - `pass_step`: also pass the step number (0-based, a traced integer, so nothing recompiles),
+      last: `loss_fn(params, [key,] step)`, for a curriculum (a horizon, a sharpness, a gradient
+      decay that changes over the training).
+    - `keep_best`: return (and checkpoint) the parameters with the lowest loss seen; `False`: the
+      parameters after the last step (on divergence, the last ones with a finite loss). When
+      every step draws a fresh random batch, the lowest batch loss marks a lucky batch more than
+      the best parameters.
     - `steps`: the maximum number of steps.
     - `optimizer`: any `optax.GradientTransformation` (default: `default_optimizer`).
     - `patience`, `min_delta`: stop when the loss has not improved by `min_delta` for
-      `patience` steps; the best parameters are returned.
+      `patience` steps.
     - `checkpoint_path`: where the whole training state (parameters, optimizer state, best
       parameters, history) is written atomically every `checkpoint_every` steps, when the run is
       interrupted or fails, and at the end.
@@ -149,12 +159,16 @@ def train(
     history = info["history"]
     best_loss = math.inf if info["best_loss"] is None else info["best_loss"]
     since_best, stopped_early = info["since_best"], info["stopped_early"]
+    finite_params = params  # the last parameters whose loss was finite
+
+    def kept():
+        return best_params if keep_best else params
     step_times: list[float] = []
     first = info["next_step"]
 
     def checkpoint(next_step: int) -> None:
         if checkpoint_path is not None:
-            save_checkpoint(checkpoint_path, best_params, {
+            save_checkpoint(checkpoint_path, kept(), {
                 "next_step": next_step, "steps": steps, "history": history,
                 "best_loss": None if math.isinf(best_loss) else best_loss, "since_best": since_best,
                 "stopped_early": stopped_early}, (params, opt_state))
@@ -163,6 +177,8 @@ def train(
     try:
         for step in range(first, first if stopped_early else steps):
             key_args = () if key is None else (jax.random.fold_in(key, step),)
+            if pass_step:
+                key_args += (jnp.asarray(step, jnp.int32),)
             start = time.perf_counter()
             new_params, new_opt_state, loss, metrics = update(params, opt_state, *key_args)
             loss = float(loss)
@@ -173,7 +189,7 @@ def train(
                     f"{history['loss'][-1] if history['loss'] else 'none'}); lower the learning "
                     "rate or the smoothing sharpness, or check the inputs.",
                     step,
-                    best_params,
+                    best_params if keep_best else finite_params,
                 )
             history["loss"].append(loss)
             for name, value in metrics.items():
@@ -182,7 +198,7 @@ def train(
                 best_loss, best_params, since_best = loss, params, 0
             else:
                 since_best += 1
-            params, opt_state = new_params, new_opt_state
+            finite_params, params, opt_state = params, new_params, new_opt_state
             bar.update(1)
             postfix = {"loss": f"{loss:.6g}"}
             if "value" in metrics:
@@ -204,7 +220,7 @@ def train(
     checkpoint(len(history["loss"]))
     typical = sorted(step_times[1:])[len(step_times[1:]) // 2] if len(step_times) > 1 else 0.0
     return TrainResult(
-        params=best_params,
+        params=kept(),
         history=history,
         steps_run=len(history["loss"]),
         stopped_early=stopped_early,

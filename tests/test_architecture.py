@@ -11,7 +11,7 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-PACKAGES = ("snapo_ode", "finance", "chemistry")
+PACKAGES = ("snapo_ode", "finance", "chemistry", "control")
 MAX_LINES = 330
 
 
@@ -102,6 +102,7 @@ def test_modules_stay_small():
 
 
 def test_the_cli_and_the_packages_import_no_jax():
-    script = ("import sys\nfrom snapo_ode.cli import build\nbuild()\nimport finance.gas_storage, chemistry.pharma\n"
+    script = ("import sys\nfrom snapo_ode.cli import build\nbuild()\n"
+              "import finance.gas_storage, chemistry.pharma, control.pendulum\n"
               "assert 'jax' not in sys.modules, sorted(m for m in sys.modules if 'jax' in m)[:5]")
     subprocess.run([sys.executable, "-c", script], cwd=ROOT, check=True)

@@ -32,6 +32,32 @@ def test_deterministic_under_a_key():
     assert runs[0].history["loss"] == runs[1].history["loss"]
 
 
+def test_the_step_reaches_the_loss_without_recompiling():
+    traces = []
+
+    def scheduled(params, key, step):
+        traces.append(step)
+        target = jnp.where(step < 10, 1.0, -1.0)  # a two-phase curriculum
+        return jnp.sum((params["x"] - target) ** 2), {"step": step}
+
+    result = snapo_ode.train(scheduled, {"x": jnp.zeros(1)}, steps=20, key=jax.random.key(0), pass_step=True,
+                             learning_rate=0.1, progress=False)
+    assert result.history["step"] == list(range(20)) and len(traces) == 1
+    assert result.history["loss"][10] > result.history["loss"][9]  # the target moved at step 10
+
+
+def test_keep_best_false_returns_the_last_parameters():
+    def noisy(params, key):  # the batch's noise makes some steps' losses lucky
+        return jnp.sum((params["x"] - 1.0) ** 2) + jax.random.normal(key), {}
+
+    kwargs = dict(steps=30, key=jax.random.key(1), learning_rate=0.05, progress=False)
+    best = snapo_ode.train(noisy, {"x": jnp.zeros(1)}, **kwargs)
+    last = snapo_ode.train(noisy, {"x": jnp.zeros(1)}, keep_best=False, **kwargs)
+    assert best.history == last.history and best.best_loss == last.best_loss
+    step = int(np.argmin(best.history["loss"]))
+    assert step < 29 and float(best.params["x"][0]) < float(last.params["x"][0])  # x climbs towards 1
+
+
 def test_early_stopping_returns_the_best_parameters():
     flat = lambda params: (jnp.sum(params["x"] * 0.0) + 1.0, {})  # noqa: E731
     result = snapo_ode.train(flat, {"x": jnp.zeros(2)}, steps=100, patience=5, progress=False)
