@@ -93,7 +93,7 @@ def test_lsmc_honours_ratchets_and_the_terminal_requirement_under_volatility():
 def test_split_policy_trades_bang_bang_when_hard_and_smoothly_when_training():
     inputs = bdj_inputs(BDJ_VOLATILITY["high"])
     scene = gs.stochastic_scene()
-    policy = gs.make_policy(scene, inputs, key=jax.random.key(3), split_actions=True, spot_scale=0.3)
+    policy = gs.make_policy(scene, inputs, key=jax.random.key(3), head="split", spot_scale=0.3)
     shocks = jax.random.normal(jax.random.key(4), (8, inputs.n_days))
     hard = gs.simulate(policy, inputs, scene, sharpness=None, shocks=shocks)
     # Every bound on bdj (rates, capacity, the floor) is a multiple of 2,500 MWh, so is every flow.

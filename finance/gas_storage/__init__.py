@@ -5,6 +5,8 @@ baseline. Public names load on first use (see `snapo_ode.lazy_exports`)."""
 from snapo_ode import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "._action_heads": ("make_action_policy", "simulate_path"),
+    "._basestock": ("BasestockPolicy", "basestock_targets", "inventory_ceiling", "make_basestock_policy"),
     "._bench": ("run_gas_benchmark",),
     "._bench_lsmc": ("run_lsmc_benchmark",),
     "._cases": ("BDJ_MEAN_REVERSION", "BDJ_PUBLISHED", "BDJ_VOLATILITY", "CASES", "boogert_de_jong"),
@@ -16,13 +18,14 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._lsmc": ("InventoryGrid", "LSMCFit", "fit_lsmc", "inventory_grid", "perfect_foresight", "run_lsmc_policy",
                "value_lsmc"),
     "._lsmc_deltas": ("lsmc_bumped_deltas", "lsmc_valuation", "lsmc_value_and_deltas"),
-    "._model": ("GAS_EFFECTS", "FactorTransition", "Schedule", "deterministic_scene", "expected_value",
-                "factor_transition", "inventory_floor", "make_policy", "simulate", "spot_factor", "spot_prices",
-                "stochastic_scene"),
+    "._model": ("GAS_EFFECTS", "FactorTransition", "Schedule", "deterministic_scene", "factor_transition",
+                "feasible_flows", "flows_and_cash", "inventory_floor", "spot_factor", "spot_prices", "stochastic_scene"),
     "._penalty": ("AbstractInnovationBasis", "AbstractPenalty", "RegressionPenalty", "ShockHermite", "SpotCalls",
                   "SpotPowers", "fit_penalty"),
+    "._policy": ("DEFAULT_HEAD", "POLICY_HEADS", "expected_value", "load_storage_policy", "make_policy", "simulate",
+                 "storage_policy_bytes"),
     "._report": ("build_gas_report", "gas_report"),
     "._results": ("LSMCComparison", "StorageStudy", "standard_error"),
-    "._study": ("StudySettings", "constraint_violation", "evaluation_shocks", "run_study"),
+    "._study": ("HEAD_TRAINING", "StudySettings", "constraint_violation", "evaluation_shocks", "run_study"),
     "._versus_lsmc": ("LSMC_KEY", "compare_with_lsmc", "lsmc_fit_shocks"),
 })

@@ -11,7 +11,8 @@ from snapo_ode import Column, format_table, time_function, write_table
 from ._cases import CASES
 from ._files import sample_curve, sample_facility
 from ._inputs import make_inputs
-from ._model import deterministic_scene, make_policy, simulate_path
+from ._action_heads import make_action_policy, simulate_path
+from ._model import deterministic_scene
 from ._study import StudySettings, run_study
 
 STUDY_COLUMNS = (
@@ -42,7 +43,7 @@ def rollout_comparison(repeats: int) -> list[dict]:
     `lax.scan` and by Diffrax's `DiscreteStepper` (checkpoints = number of steps)."""
     inputs = make_inputs(sample_facility(), sample_curve())
     scene = deterministic_scene()
-    policy = make_policy(scene, inputs, key=jax.random.key(0))
+    policy = make_action_policy(scene, inputs, key=jax.random.key(0))
     zeros = jnp.zeros(inputs.n_days)
     rows = []
     for method in ("scan", "diffrax"):

@@ -32,17 +32,19 @@ COLUMNS = (
 )
 
 
-def run_lsmc_benchmark(out: pathlib.Path, *, paths: int, train_paths: int, train_steps: int,
-                       foresight_paths: int, nodes: int, degree: int, seed: int = 0) -> list[dict]:
-    """For B&dJ's low and high volatility: train SNAPO, value by LSMC with `paths` fitting paths,
+def run_lsmc_benchmark(out: pathlib.Path, *, paths: int, train_paths: int | None, train_steps: int | None,
+                       foresight_paths: int, nodes: int, degree: int, seed: int = 0,
+                       head: str = "basestock") -> list[dict]:
+    """For B&dJ's low and high volatility: train SNAPO (`head`; `train_paths`, `train_steps` None:
+    the head's defaults), value by LSMC with `paths` fitting paths,
     and evaluate both (and perfect foresight on `foresight_paths`) on the same `paths` fresh
     paths; print the side-by-side table and write `bench_gas_lsmc.csv` / `.json` under `out`."""
     facility, curve = CASES["bdj"]()
     rows, results = [], {}
     for level, volatility in BDJ_VOLATILITY.items():
         inputs = make_inputs(facility, curve, volatility=volatility, mean_reversion=BDJ_MEAN_REVERSION)
-        settings = StudySettings(stochastic=True, paths=paths, train_paths=train_paths, train_steps=train_steps,
-                                 seed=seed, repeats=3)
+        settings = StudySettings(stochastic=True, paths=paths, head=head, train_paths=train_paths,
+                                 train_steps=train_steps, seed=seed, repeats=3)
         comparison = compare_with_lsmc(inputs, settings, nodes=nodes, degree=degree, foresight_paths=foresight_paths)
         results[level] = {key: value for key, value in comparison.to_json().items()
                           if key not in ("schedule", "deltas", "lp_envelope_deltas")}
@@ -61,7 +63,8 @@ def run_lsmc_benchmark(out: pathlib.Path, *, paths: int, train_paths: int, train
             "snapo_compile_seconds": study.compile_seconds,
         })
     print(f"\nB&dJ (2008) storage, {paths:,} fresh evaluation paths (LSMC fitted on {paths:,} others; "
-          f"SNAPO trained {train_steps} steps x {train_paths} paths), EUR million, +- one standard error")
+          f"SNAPO's {settings.head} head trained {settings.train_steps} steps x {settings.train_paths} paths), "
+          "EUR million, +- one standard error")
     print(format_table(rows, COLUMNS))
     written = write_table(out, "bench_gas_lsmc", rows, {"results": results, "nodes": nodes, "degree": degree})
     print(f"written: {', '.join(map(str, written))}")

@@ -23,12 +23,23 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mean-reversion", type=float, help="OU mean reversion [1/year] (default 2; "
                         "bdj: 18.25, B&dJ's 0.05/day)")
     parser.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths (stochastic mode)")
-    parser.add_argument("--train-paths", type=int, default=256, help="fresh paths per training step")
-    parser.add_argument("--train-steps", type=int, default=1500)
-    parser.add_argument("--sharpness", type=float, default=200.0,
-                        help="smoothing sharpness (gap about log(2)/sharpness of a day's maximum flow)")
-    parser.add_argument("--split-actions", action="store_true", help="policy with separate inject and withdraw "
-                        "scores, bang-bang in the hard evaluation (see make_policy)")
+    parser.add_argument("--head", choices=["basestock", "fraction", "split"], default="basestock",
+                        help="policy head (see make_policy): basestock inventory targets (Secomandi 2010; the "
+                        "default, measured best), a fraction of the largest flow, or split inject/withdraw scores")
+    parser.add_argument("--split-actions", action="store_true", help="same as --head split")
+    parser.add_argument("--train-paths", type=int, help="fresh paths per training step (default per head: "
+                        "basestock 512, others 256)")
+    parser.add_argument("--train-steps", type=int, help="default per head: basestock 800, others 1500")
+    parser.add_argument("--learning-rate", type=float, help="peak learning rate (default per head: basestock 0.03, "
+                        "others 0.01)")
+    parser.add_argument("--sharpness", type=float, help="smoothing sharpness of the smooth value (gap about "
+                        "log(2)/sharpness of a day's maximum flow; default 200)")
+    parser.add_argument("--hard-training", action=argparse.BooleanOptionalAction, help="train and differentiate "
+                        "the exact model (the basestock head can: its value is continuous in its targets; default no)")
+    parser.add_argument("--train-float32", action=argparse.BooleanOptionalAction, help="training passes in float32; "
+                        "evaluation and sensitivities stay float64 (default: basestock yes, others no)")
+    parser.add_argument("--deltas-only", action="store_true", help="the reverse pass differentiates the forward "
+                        "curve only, not the facility's parameters (a smaller program, compiled faster)")
     parser.add_argument("--bump", action="store_true", help="also run central bump-and-revalue of the deltas")
 
 
@@ -54,9 +65,11 @@ def study_from_args(args):
     if not args.stochastic:
         volatility = mean_reversion = 0.0
     inputs = make_inputs(facility, curve, volatility=volatility, mean_reversion=mean_reversion)
-    settings = StudySettings(stochastic=args.stochastic, paths=args.paths, train_paths=args.train_paths,
-                             seed=args.seed, train_steps=args.train_steps, sharpness=args.sharpness,
-                             split_actions=args.split_actions, bump=args.bump, progress=args.progress,
+    settings = StudySettings(stochastic=args.stochastic, paths=args.paths, head=args.head,
+                             split_actions=args.split_actions, train_paths=args.train_paths, seed=args.seed,
+                             train_steps=args.train_steps, learning_rate=args.learning_rate, sharpness=args.sharpness,
+                             hard_training=args.hard_training, train_float32=args.train_float32,
+                             deltas_only=args.deltas_only, bump=args.bump, progress=args.progress,
                              checkpoint_path=args.checkpoint, resume=args.resume)
     return inputs, settings
 
@@ -64,9 +77,9 @@ def study_from_args(args):
 def _write(result, policy, json_path: pathlib.Path) -> int:
     """Publish the JSON and the trained policy beside it (`OUT.policy.eqx`) as one set, then the
     summary."""
-    from snapo_ode import policy_bytes
+    from ._policy import storage_policy_bytes
 
-    written = result.publish(json_path, {".policy.eqx": policy_bytes(policy)})
+    written = result.publish(json_path, {".policy.eqx": storage_policy_bytes(policy)})
     print(result.summary())
     print(f"  written: {', '.join(map(str, written))}")
     return 0
@@ -110,7 +123,7 @@ def run_bench_lsmc(args) -> int:
 
     run_lsmc_benchmark(args.out, paths=args.paths, train_paths=args.train_paths, train_steps=args.train_steps,
                        foresight_paths=args.foresight_paths, nodes=args.lsmc_nodes, degree=args.lsmc_degree,
-                       seed=args.seed)
+                       seed=args.seed, head=args.head)
     return 0
 
 
@@ -137,8 +150,9 @@ def register_gas(cli) -> None:
     versus = cli.bench("gas-lsmc", "SNAPO against least-squares Monte Carlo on the Boogert & de Jong (2008) "
                        "contract, both volatilities, the same fresh paths")
     versus.add_argument("--paths", type=int, default=10_000, help="LSMC fitting paths and evaluation paths")
-    versus.add_argument("--train-paths", type=int, default=256, help="SNAPO: fresh paths per training step")
-    versus.add_argument("--train-steps", type=int, default=400)
+    versus.add_argument("--head", choices=["basestock", "fraction", "split"], default="basestock")
+    versus.add_argument("--train-paths", type=int, help="SNAPO: fresh paths per training step (default: the head's)")
+    versus.add_argument("--train-steps", type=int, help="default: the head's")
     versus.add_argument("--foresight-paths", type=int, default=1000, help="paths of the perfect-foresight LPs")
     versus.add_argument("--lsmc-nodes", type=int, default=101)
     versus.add_argument("--lsmc-degree", type=int, default=3)

@@ -6,10 +6,11 @@ schedule of every path) travels with the result, outside the JSON."""
 import dataclasses
 from typing import ClassVar
 
+import equinox as eqx
 import jax
 import numpy as np
 
-from snapo_ode import BumpComparison, MLPPolicy, Result, Scene, field
+from snapo_ode import BumpComparison, Result, Scene, field
 
 from ._inputs import StorageInputs
 from ._lp import IntrinsicSolution
@@ -54,6 +55,9 @@ class StorageStudy(Result):
     gradient_seconds: float
     gradient_forward_ratio: float
     training_history: dict
+    training_curve: list
+    head: str
+    training_settings: dict
     paths: int | None = None
     train_paths: int | None = None
     seed: int | None = None
@@ -61,7 +65,7 @@ class StorageStudy(Result):
     value_smooth_se: float | None = None
     evaluation: str | None = None
     schedule_note: str | None = None
-    policy: MLPPolicy = field(json=False)
+    policy: eqx.Module = field(json=False)
     inputs: StorageInputs = field(json=False)
     scene_effects: Scene = field(json=False)
     evaluation_shocks: jax.Array | None = field(json=False)

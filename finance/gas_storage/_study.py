@@ -11,47 +11,85 @@ import jax.numpy as jnp
 import numpy as np
 
 import snapo_ode
-from snapo_ode import check_count, time_function
+from snapo_ode import check_choice, check_count, time_function
 
 from ._inputs import StorageInputs, check_positive_prices
 from ._lp import solve_intrinsic
-from ._model import deterministic_scene, expected_value, make_policy, simulate, stochastic_scene
+from ._model import deterministic_scene, stochastic_scene
+from ._policy import DEFAULT_HEAD, POLICY_HEADS, PolicyHead, expected_value, make_policy, simulate
 from ._results import StorageStudy, standard_error
+
+
+# Training settings per head, measured on the Boogert & de Jong contract (docs/gas_storage.md,
+# "Policy heads"): the basestock head trains in float32 on 512 fresh paths a step at a larger
+# learning rate; like the action heads it trains on the smooth model (its value is also
+# continuous in its targets on the exact model, which trains it as well: hard_training).
+HEAD_TRAINING = {
+    "basestock": dict(train_paths=512, train_steps=800, learning_rate=3e-2, sharpness=200.0, hard_training=False,
+                      train_float32=True),
+    "fraction": dict(train_paths=256, train_steps=1500, learning_rate=1e-2, sharpness=200.0, hard_training=False,
+                     train_float32=False),
+    "split": dict(train_paths=256, train_steps=1500, learning_rate=1e-2, sharpness=200.0, hard_training=False,
+                  train_float32=False),
+}
 
 
 @dataclass(frozen=True)
 class StudySettings:
     """**Fields:** `stochastic` (trade on simulated spot paths); `paths` (Monte Carlo paths of
-    the evaluation, drawn fresh, common to the value, the adjoint and the bumps);
-    `train_paths` (paths drawn anew at every training step); `seed`; `train_steps`; `learning_rate`;
-    `sharpness` (dimensionless smoothing sharpness; gaps are about log(2)/sharpness of a day's
-    maximum flow); `split_actions` and `width` (of the policy, see `make_policy`); `bump` (also
-    run central bump-and-revalue on the 365 deltas); `repeats` (timed runs per median);
-    `progress` (show a progress bar); `checkpoint_path` and `resume` (of the training, see
-    `snapo_ode.train`)."""
+    the evaluation, drawn fresh, common to the value, the adjoint and the bumps); `head` (of the
+    policy, see `make_policy`; `split_actions=True` is `head="split"`) and `width`;
+    `train_paths` (paths drawn anew at every training step); `seed`; `train_steps`;
+    `learning_rate`; `sharpness` (dimensionless smoothing sharpness of the smooth value; gaps
+    are about log(2)/sharpness of a day's maximum flow); `hard_training` (train and take the
+    sensitivities on the exact model, as the basestock head does); `train_float32` (training
+    passes in float32; evaluation and sensitivities stay float64); the training fields left None
+    take the head's measured defaults (`HEAD_TRAINING`); `deltas_only` (the reverse pass
+    differentiates the forward curve only, not the facility's parameters: a smaller program);
+    `bump` (also run central bump-and-revalue on the 365 deltas); `repeats` (timed runs per
+    median after a warm-up run; None: 5 in deterministic mode, where a pass takes milliseconds,
+    1 in stochastic mode, where it takes seconds); `progress` (show a progress bar); `checkpoint_path` and `resume` (of the training,
+    see `snapo_ode.train`)."""
 
     stochastic: bool = False
     paths: int = 1000
-    train_paths: int = 256
-    seed: int = 0
-    train_steps: int = 1500
-    learning_rate: float = 1e-2
-    sharpness: float = 200.0
+    head: PolicyHead = DEFAULT_HEAD
     split_actions: bool = False
+    train_paths: int | None = None
+    seed: int = 0
+    train_steps: int | None = None
+    learning_rate: float | None = None
+    sharpness: float | None = None
+    hard_training: bool | None = None
+    train_float32: bool | None = None
     width: int = 32
+    deltas_only: bool = False
     bump: bool = False
-    repeats: int = 5
+    repeats: int | None = None
     progress: bool = True
     checkpoint_path: pathlib.Path | None = None
     resume: bool = False
 
     def __post_init__(self):
+        if self.split_actions:
+            object.__setattr__(self, "head", "split")
+        check_choice("head", self.head, POLICY_HEADS)
+        for name, default in HEAD_TRAINING[self.head].items():
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, default)
         check_count("paths", self.paths, 2, 10_000_000)
         check_count("train_paths", self.train_paths, 1, 10_000_000)
         check_count("train_steps", self.train_steps, 1, 10_000_000)
         snapo_ode.check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         snapo_ode.check_range("sharpness", self.sharpness, 0.0, 1e8, low_open=True)
+        if self.repeats is None:
+            object.__setattr__(self, "repeats", 1 if self.stochastic else 5)
         check_count("repeats", self.repeats)
+
+    @property
+    def training_sharpness(self) -> float | None:
+        """The sharpness of training and of the sensitivities: None (exact) with `hard_training`."""
+        return None if self.hard_training else self.sharpness
 
 
 def memory_estimate(n_days: int, settings: StudySettings) -> float:
@@ -127,49 +165,64 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         eval_shocks = evaluation_shocks(settings, inputs.n_days)
         kappa = max(float(inputs.mean_reversion), 1e-6)
         spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
-    policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale, split_actions=settings.split_actions,
-                         width=settings.width)
+    intrinsic = solve_intrinsic(inputs, deterministic_scene())
+    policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale, head=settings.head,
+                         width=settings.width, intrinsic_inventory=intrinsic.inventory)
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
-    sharpness = settings.sharpness
+    sharpness = settings.training_sharpness
+    train_dtype = jnp.float32 if settings.train_float32 else jnp.float64
+
+    def cast(tree):
+        return jax.tree.map(lambda leaf: leaf.astype(train_dtype) if eqx.is_inexact_array(leaf) else leaf, tree)
 
     def loss(policy, *step_key):
         shocks = None
         if settings.stochastic:
-            shocks = jax.random.normal(step_key[0], (settings.train_paths, inputs.n_days))
-        value = expected_value(policy, inputs, scene, sharpness=sharpness, shocks=shocks)
+            shocks = jax.random.normal(step_key[0], (settings.train_paths, inputs.n_days), train_dtype)
+        value = expected_value(cast(policy), cast(inputs), scene, sharpness=sharpness, shocks=shocks)
         return -value / scale, {"value": value}
 
     start = time.perf_counter()
     trained = snapo_ode.train(loss, policy, steps=settings.train_steps, learning_rate=settings.learning_rate,
                               key=train_key if settings.stochastic else None,
                               progress=settings.progress, description="training storage policy",
-                              checkpoint_path=settings.checkpoint_path, checkpoint_every=50, resume=settings.resume)
+                              checkpoint_path=settings.checkpoint_path, checkpoint_every=50, resume=settings.resume,
+                              keep_best=not settings.stochastic)  # with fresh paths each step, the best is a lucky batch
     train_wall = time.perf_counter() - start
     policy = trained.params
 
+    # The evaluation shocks are arguments, not closed-over constants: XLA would fold a constant
+    # array of 10,000 paths through the price model at compile time (measured: tens of seconds).
     @eqx.filter_jit
-    def evaluate(policy, inputs, sharpness_is_hard: bool):
-        return simulate(policy, inputs, scene, sharpness=None if sharpness_is_hard else sharpness,
-                        shocks=eval_shocks)
+    def evaluate(policy, inputs, shocks, sharpness_is_hard: bool):
+        return simulate(policy, inputs, scene, sharpness=None if sharpness_is_hard else settings.sharpness,
+                        shocks=shocks)
 
-    smooth_run = evaluate(policy, inputs, False)
-    hard_run = evaluate(policy, inputs, True)
+    smooth_run = evaluate(policy, inputs, eval_shocks, False)
+    hard_run = evaluate(policy, inputs, eval_shocks, True)
     kept = 1.0 - float(inputs.fuel_loss)
-    intrinsic = solve_intrinsic(inputs, deterministic_scene())
 
     @eqx.filter_jit
-    def smooth_value(policy, inputs):
-        return expected_value(policy, inputs, scene, sharpness=sharpness, shocks=eval_shocks)
+    def smooth_value(policy, inputs, shocks):
+        return expected_value(policy, inputs, scene, sharpness=sharpness, shocks=shocks)
 
     @eqx.filter_jit
-    def value_and_gradient_of_both(both):
-        return snapo_ode.value_and_sensitivities(lambda both: smooth_value(*both), both)
+    def value_and_gradient_of_both(both, shocks):
+        if settings.deltas_only:
+            value, deltas = jax.value_and_grad(
+                lambda curve: smooth_value(both[0], eqx.tree_at(lambda i: i.forward_curve, both[1], curve), shocks))(
+                both[1].forward_curve)
+            no_sensitivities = jax.tree.map(lambda _: None, both[1])
+            return value, (None, eqx.tree_at(lambda i: i.forward_curve, no_sensitivities, deltas,
+                                             is_leaf=lambda leaf: leaf is None))
+        return snapo_ode.value_and_sensitivities(lambda both: smooth_value(*both, shocks), both)
 
-    forward_timing, _ = time_function(smooth_value, policy, inputs, repeats=settings.repeats)
-    gradient_timing, (value, (_, gradient)) = time_function(value_and_gradient_of_both, (policy, inputs),
-                                                            repeats=settings.repeats)
+    forward_timing, _ = time_function(smooth_value, policy, inputs, eval_shocks, repeats=settings.repeats)
+    gradient_timing, (_, (_, gradient)) = time_function(value_and_gradient_of_both, (policy, inputs),
+                                                            eval_shocks, repeats=settings.repeats)
     deltas = np.asarray(gradient.forward_curve)
     value_hard = float(np.mean(hard_run.value))
+    value_smooth = float(np.mean(smooth_run.value))
     stochastic = {}
     if settings.stochastic:
         stochastic = dict(paths=settings.paths, train_paths=settings.train_paths, seed=settings.seed,
@@ -183,15 +236,15 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         paths = settings.paths if settings.stochastic else 1
         batch_size = max(1, 65_536 // paths)
         bump = snapo_ode.compare_with_bumps(
-            lambda both: smooth_value(*both), (policy, inputs), select=lambda both: both[1].forward_curve,
-            adjoint_fn=value_and_gradient_of_both, batch_size=batch_size if batch_size < 2 * deltas.size else None,
+            lambda both: smooth_value(*both, eval_shocks), (policy, inputs), select=lambda both: both[1].forward_curve,
+            adjoint_fn=lambda both: value_and_gradient_of_both(both, eval_shocks), batch_size=batch_size if batch_size < 2 * deltas.size else None,
             floor=1e-3, repeats=settings.repeats, bump_repeats=1, sequential=True)
     return StorageStudy(
         mode="stochastic" if settings.stochastic else "deterministic",
         scene=sorted(scene.active),
         value_hard=value_hard,
-        value_smooth=float(value),
-        smoothing_gap=float(value) - value_hard,
+        value_smooth=value_smooth,
+        smoothing_gap=value_smooth - value_hard,
         intrinsic_lp=intrinsic.value,
         intrinsic_method=intrinsic.method,
         hard_to_lp_ratio=value_hard / intrinsic.value if intrinsic.value else None,
@@ -215,6 +268,10 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         gradient_seconds=gradient_timing.median_seconds,
         gradient_forward_ratio=gradient_timing.median_seconds / forward_timing.median_seconds,
         training_history={"loss": trained.history["loss"], "value": trained.history["value"]},
+        training_curve=trained.history["value"], head=settings.head,
+        training_settings=dict(train_paths=settings.train_paths, train_steps=settings.train_steps,
+                               learning_rate=settings.learning_rate, sharpness=sharpness,
+                               train_float32=settings.train_float32, keep="best" if not settings.stochastic else "last"),
         policy=policy, inputs=inputs, scene_effects=scene, evaluation_shocks=eval_shocks, hard=hard_run,
         intrinsic=intrinsic, bump=bump, bump_relative_step=snapo_ode.DEFAULT_RELATIVE_STEP if bump else None,
         **stochastic,
