@@ -43,6 +43,14 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bump", action="store_true", help="also run central bump-and-revalue of the deltas")
 
 
+def add_lsmc_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--lsmc", action="store_true", help="also value by least-squares Monte Carlo, perfect "
+                        "foresight and the dual upper bound on the same fresh paths (needs --stochastic)")
+    parser.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC inventory grid levels")
+    parser.add_argument("--lsmc-degree", type=int, default=3, help="LSMC polynomial degree in spot")
+    parser.add_argument("--foresight-paths", type=int, default=256, help="paths of the perfect-foresight LPs")
+
+
 def study_from_args(args):
     """Build the inputs and settings from parsed arguments (validated before any compile)."""
     from snapo_ode import InputError
@@ -134,11 +142,7 @@ def register_gas(cli) -> None:
                       "the JSON)")
     add_study_arguments(gas)
     add_training_options(gas)
-    gas.add_argument("--lsmc", action="store_true", help="also value by least-squares Monte Carlo and perfect "
-                     "foresight on the same fresh paths (needs --stochastic)")
-    gas.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC inventory grid levels")
-    gas.add_argument("--lsmc-degree", type=int, default=3, help="LSMC polynomial degree in spot")
-    gas.add_argument("--foresight-paths", type=int, default=256, help="paths of the perfect-foresight LPs")
+    add_lsmc_arguments(gas)
     gas.set_defaults(handler=run_gas)
     demo = cli.command("demo", "the gas-storage study on the built-in sample facility and curve, with bumps "
                        "(writes OUT/gas.json and OUT/gas.policy.eqx)", json_name="gas.json")

@@ -30,9 +30,9 @@ from tqdm.auto import tqdm
 
 from snapo_ode import InputError, Scene, check_count, time_function
 
-from ._inputs import DAYS_PER_YEAR, StorageInputs
+from ._inputs import StorageInputs
 from ._lp import solve_intrinsic
-from ._model import GAS_EFFECTS, Schedule, kept_fraction, rate_fraction
+from ._model import GAS_EFFECTS, Schedule, flows_and_cash, kept_fraction, rate_fraction
 from ._results import standard_error
 
 
@@ -104,16 +104,7 @@ class LSMCFit(NamedTuple):
 def _move_cash(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, price, day):
     """Discounted cash flow [$] of every move at `price`, shape price.shape + (M,)."""
     net = jnp.asarray(grid.moves * grid.spacing)
-    injection = jnp.maximum(net, 0.0) / kept_fraction(inputs, scene)
-    withdrawal = jnp.maximum(-net, 0.0)
-    price = price[..., None]
-    if scene.has("costs"):
-        cash = -(price + inputs.injection_cost) * injection + (price - inputs.withdrawal_cost) * withdrawal
-    else:
-        cash = price * (withdrawal - injection)
-    if scene.has("discounting"):
-        cash = cash * jnp.exp(-inputs.rate / DAYS_PER_YEAR * day)
-    return cash
+    return flows_and_cash(inputs, scene, net, price[..., None], day, None)[2]
 
 
 def _basis(ratio, scale, degree: int):

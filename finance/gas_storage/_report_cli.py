@@ -5,7 +5,7 @@ import datetime
 
 from snapo_ode.cli import add_training_options
 
-from ._cli import add_study_arguments
+from ._cli import add_lsmc_arguments, add_study_arguments
 
 SAMPLE_START_DATES = {"bdj": datetime.date(2005, 7, 1)}  # Boogert & de Jong's contract starts on 1 Jul 2005
 
@@ -44,11 +44,7 @@ def register_gas_report(cli) -> None:
                         "schedule and the facility sensitivities")
     add_study_arguments(report)
     add_training_options(report)
-    report.add_argument("--lsmc", action="store_true", help="also value by LSMC on the same fresh paths (needs "
-                        "--stochastic)")
-    report.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC inventory grid levels")
-    report.add_argument("--lsmc-degree", type=int, default=3, help="LSMC polynomial degree in spot")
-    report.add_argument("--foresight-paths", type=int, default=256, help="paths of the perfect-foresight LPs")
+    add_lsmc_arguments(report)
     report.add_argument("--start-date", metavar="YYYY-MM-DD", help="the calendar date of day 0, for the monthly ladder "
                         "(default: the sample's own, 1 Jul 2005 for bdj; else months of a non-leap year from day 0)")
     report.set_defaults(handler=run_report)
