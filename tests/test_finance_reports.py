@@ -80,7 +80,9 @@ def test_gas_report_reads_the_optional_lsmc_fields_when_present():
 def _gas_stub() -> dict:
     stub = {key: 1.0 for key in ("value_hard", "value_smooth", "smoothing_gap", "intrinsic_lp", "hard_to_lp_ratio",
                                  "max_constraint_violation", "lsmc_out_of_sample", "lsmc_se", "dual_upper_bound",
-                                 "dual_upper_bound_se", "snapo_gap", "lsmc_gap")}
+                                 "dual_upper_bound_se", "snapo_gap", "lsmc_gap", "snapo_gap_se", "lsmc_gap_se",
+                                 "snapo_value_control_variate", "snapo_value_control_variate_se",
+                                 "lsmc_value_control_variate", "lsmc_value_control_variate_se")}
     stub.update(lsmc_run=True, has_dual_bound=True, largest_month={"month": "m", "delta": 1.0}, forward_curve=[1.0] * 59,
                 schedule={"inventory": [1.0] * 60}, lp_schedule={"inventory": [1.0] * 60}, facility_sensitivities=[])
     return stub

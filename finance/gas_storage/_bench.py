@@ -21,8 +21,8 @@ STUDY_COLUMNS = (
     Column("compile s", "compile_seconds", ".1f"), Column("forward ms", "forward_ms", ".2f"),
     Column("gradient ms (all inputs + policy)", "gradient_ms", ".2f"), Column("grad/fwd", "gradient_forward_ratio", ".2f"),
     Column("365 bumps, batched ms", "bump_batched_ms", ".1f"), Column("365 bumps, sequential ms", "bump_sequential_ms", ".0f"),
-    Column("speedup vs batched", "speedup_vs_batched", lambda v: f"{v:.0f}x"),
-    Column("vs sequential", "speedup_vs_sequential", lambda v: f"{v:.0f}x"),
+    Column("speedup vs batched", "speedup_vs_batched", lambda v: f"{v:.2g}x"),
+    Column("vs sequential", "speedup_vs_sequential", lambda v: f"{v:.3g}x"),
     Column("adjoint vs bumps", "max_rel_diff", ".1e"),
 )
 ROLLOUT_COLUMNS = (

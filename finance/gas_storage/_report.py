@@ -4,8 +4,8 @@ foresight and, where the comparison provides it, the information-relaxation dual
 the monthly delta ladder, the schedule and the facility sensitivities. This module computes the
 JSON's data; `_report_content` says what is shown; the core writes the files.
 
-The LSMC comparison's optional fields (`dual_upper_bound`, `dual_upper_bound_se`,
-`lsmc_pathwise_deltas`, `snapo_gap`, `lsmc_gap`) are read only when the result has them.
+The LSMC comparison's optional fields (`OPTIONAL_LSMC`: the dual bound, the duality gaps, the
+control-variate values, LSMC's pathwise deltas) are read only when the result has them.
 """
 
 import calendar
@@ -18,7 +18,9 @@ from snapo_ode import Report
 
 from ._inputs import FACILITY_FIELDS
 
-OPTIONAL_LSMC = ("dual_upper_bound", "dual_upper_bound_se", "lsmc_pathwise_deltas", "snapo_gap", "lsmc_gap")
+OPTIONAL_LSMC = ("dual_upper_bound", "dual_upper_bound_se", "lsmc_pathwise_deltas", "snapo_gap", "snapo_gap_se",
+                 "lsmc_gap", "lsmc_gap_se", "snapo_value_control_variate", "snapo_value_control_variate_se",
+                 "lsmc_value_control_variate", "lsmc_value_control_variate_se")
 UNITS = {"capacity": "MMBtu", "initial_inventory": "MMBtu", "terminal_inventory_min": "MMBtu",
          "max_injection": "MMBtu/day", "max_withdrawal": "MMBtu/day", "fuel_loss": "fraction",
          "injection_cost": "$/MMBtu", "withdrawal_cost": "$/MMBtu", "rate": "per year",

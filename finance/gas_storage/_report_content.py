@@ -42,9 +42,13 @@ def value_section(data: dict) -> Section:
     if data["has_dual_bound"]:
         rows.append(("information-relaxation dual upper bound", V(("dual_upper_bound",), ",.0f"),
                      V(("dual_upper_bound_se",), ",.0f")))
-        for key, words in (("snapo_gap", "dual bound less the policy"), ("lsmc_gap", "dual bound less LSMC")):
-            if key in data:
-                rows.append((words, V((key,), ",.0f"), "-"))
+        for name, words in (("snapo", "policy"), ("lsmc", "LSMC")):
+            if f"{name}_gap" in data:
+                rows.append((f"{words}, cash less the bound's penalty (mean-zero control variate)",
+                             V((f"{name}_value_control_variate",), ",.0f"),
+                             V((f"{name}_value_control_variate_se",), ",.0f")))
+                rows.append((f"{words}: duality gap, (bound - value) / bound (a fraction, not $)",
+                             V((f"{name}_gap",), ".3%"), V((f"{name}_gap_se",), ".3%")))
     blocks = [Table(("value", "$", "standard error"), tuple(rows),
                     ("The value against its benchmarks; n/a: deterministic (one path)",), csv="values.csv")]
     if not data["lsmc_run"]:
