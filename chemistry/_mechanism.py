@@ -14,6 +14,7 @@ from jax.custom_derivatives import SymbolicZero
 
 from snapo_ode import InputError, require_float64
 
+from ._pressure_rates import Chebyshev, Plog
 from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
 from ._reader import read_mechanism
 from ._thermo import SpeciesThermo
@@ -32,13 +33,16 @@ class Mechanism(eqx.Module):
       condensed phase Cantera's "unity", "species-molar-volume" or "solvent-molar-volume").
     - `molar_volumes` [m^3/kmol], shape `(n_species,)` (zeros for a gas).
     - `reference_pressure` [Pa].
-    - `pre_exponential`: A of each reaction, SI (kmol, m^3, s); may be negative on a duplicate.
+    - `pre_exponential`: A of each reaction, SI (kmol, m^3, s); may be negative on a duplicate;
+      0 (unused) on PLOG and Chebyshev reactions.
     - `net_stoichiometry`: products minus reactants, shape `(n_reactions, n_species)`.
     - `changed_species`: the species each reaction changes (non-zero net stoichiometry), shape
       `(n_reactions, q)`, padded with `n_species`.
     - `forward`: `Orders` of the forward rates; `reverse`: `Orders` of the reversible reactions'
       reverse rates (their products' stoichiometry), which are `reversible_index`.
-    - `three_body`, `falloff`: the pressure-dependent reactions.
+    - `three_body`, `falloff`: the reactions whose rate depends on a collision partner's
+      concentration; `plog`, `chebyshev`: those whose rate depends on the pressure, which is the
+      ideal gas's R T sum(concentrations), as in Cantera.
     - `parameters`: the differentiable `RateParameters`.
     """
 
@@ -57,6 +61,8 @@ class Mechanism(eqx.Module):
     reversible_index: Indices
     three_body: ThirdBodies
     falloff: Falloff
+    plog: Plog
+    chebyshev: Chebyshev
     parameters: RateParameters
 
     @classmethod
@@ -65,7 +71,8 @@ class Mechanism(eqx.Module):
 
         Supported: NASA7 and constant-cp thermo; ideal-gas or ideal-condensed phases; elementary
         (reversible or not, explicit `orders`, negative A on duplicates), three-body with
-        efficiencies, falloff (Lindemann, Troe). Transport data are not needed.
+        efficiencies, falloff (Lindemann, Troe, SRI), PLOG (`pressure-dependent-Arrhenius`) and
+        Chebyshev (ideal-gas phases). Transport data are not needed.
 
         **Raises:** `InputError` naming the reaction (index, line, equation) and its type for an
         unsupported reaction, and naming the field for unsupported thermo or units.
@@ -120,29 +127,36 @@ class Mechanism(eqx.Module):
         return jnp.exp(-delta_g_rt + delta_n * log_standard)
 
     def _rate_constants(self, temperature, activities, p: RateParameters, *, with_slopes: bool = False):
-        """k of every reaction, shape `(n_reactions,)` [SI]; with `with_slopes` also d k / d
-        (collision partner concentration) of the three-body and of the falloff reactions,
-        shapes `(t,)` and `(f,)` (the partner concentration is `efficiencies @ activities`)."""
+        """k of every reaction, shape `(n_reactions,)` [SI]; with `with_slopes` also, for each
+        non-empty group of reactions whose k depends on the activities (three-body, falloff,
+        PLOG, Chebyshev), `(index, slope, efficiencies)`: d k / d (partner concentration
+        `efficiencies @ activities`), shape `(g,)`, with `efficiencies` `(g, n_species)` (for the
+        pressure-dependent groups, whose partner is the total concentration, `(1, n_species)` ones)."""
         log_t = jnp.log(temperature)
         k = self.pre_exponential * jnp.exp(p.temperature_exponent * log_t - p.activation_temperature / temperature)
         multiplier = jnp.exp(p.log_multiplier)
-        slopes = [jnp.zeros(0, k.dtype), jnp.zeros(0, k.dtype)]
+        slopes = []
         three_body = self.three_body
         if three_body.index.size:
-            slopes[0] = k[three_body.index] * multiplier[three_body.index]
+            slopes.append((three_body.index, k[three_body.index], three_body.efficiencies))
             k = k.at[three_body.index].multiply(three_body.efficiencies @ activities, unique_indices=True)
-        falloff = self.falloff
-        if falloff.index.size:
-            k_high = k[falloff.index]
-            collision = falloff.efficiencies @ activities
+        k_high = k[self.falloff.index]
+        groups = [(self.falloff, self.falloff.efficiencies, lambda m: self.falloff.rate(temperature, log_t, k_high, m))]
+        total = jnp.ones((1, activities.shape[0]), activities.dtype)
+        for group in (self.plog, self.chebyshev):
+            groups.append((group, total, lambda m, group=group: group.rate(
+                temperature, log_t, jnp.log(m * GAS_CONSTANT * temperature))))
+        for group, efficiencies, rate in groups:
+            if not group.index.size:
+                continue
+            partner = efficiencies @ activities
             if with_slopes:
-                k_falloff, by_collision = jax.jvp(lambda m: falloff.rate(temperature, log_t, k_high, m), (collision,),
-                                                  (jnp.ones_like(collision),))
-                slopes[1] = by_collision * multiplier[falloff.index]
+                k_group, by_partner = jax.jvp(rate, (partner,), (jnp.ones_like(partner),))
+                slopes.append((group.index, by_partner, efficiencies))
             else:
-                k_falloff = falloff.rate(temperature, log_t, k_high, collision)
-            k = k.at[falloff.index].set(k_falloff)
-        return k * multiplier, tuple(slopes)
+                k_group = rate(partner)
+            k = k.at[group.index].set(k_group)
+        return k * multiplier, [(index, slope * multiplier[index], eff) for index, slope, eff in slopes]
 
     def _rates(self, temperature, concentrations, parameters: RateParameters):
         """Forward rates of progress, shape `(n_reactions,)`, and reverse rates of the reversible
@@ -169,14 +183,15 @@ class Mechanism(eqx.Module):
 
     def concentration_jacobian(self, temperature, concentrations, parameters: RateParameters | None = None):
         """d (net production rates) / d concentrations [1/s], shape `(n_species, n_species)`, in
-        closed form: the mass-action products' derivatives and the three-body and falloff rate
-        constants' dependence on their collision partners. It is what a Jacobian-vector product
+        closed form: the mass-action products' derivatives and the three-body, falloff, PLOG and
+        Chebyshev rate constants' dependence on their collision partners (the total concentration,
+        through the pressure, for the last two). It is what a Jacobian-vector product
         in the concentrations costs: one matrix product, however many tangents (a stiff solver's
         Jacobian is 55 of them on gri30)."""
         p = self.parameters if parameters is None else parameters
         n = self.n_species
         activities = self.activity_concentrations(concentrations)
-        k, (three_body_slope, falloff_slope) = self._rate_constants(temperature, activities, p, with_slopes=True)
+        k, slopes = self._rate_constants(temperature, activities, p, with_slopes=True)
         padded = jnp.concatenate([activities, jnp.ones(1, activities.dtype)])
         stoichiometry = self.net_stoichiometry
         padded_stoichiometry = jnp.concatenate([stoichiometry, jnp.zeros((stoichiometry.shape[0], 1))], axis=1)
@@ -192,10 +207,8 @@ class Mechanism(eqx.Module):
                 self.changed_species[rev], changes[rev],
                 (k[rev] / equilibrium)[:, None] * self.reverse.partials(padded), n)
             net_product = net_product.at[rev].add(-self.reverse.product(padded) / equilibrium)
-        for group, slope in ((self.three_body, three_body_slope), (self.falloff, falloff_slope)):
-            if group.index.size:
-                weights = (slope * net_product[group.index])[:, None] * group.efficiencies
-                jacobian = jacobian + stoichiometry[group.index].T @ weights
+        for index, slope, efficiencies in slopes:
+            jacobian = jacobian + stoichiometry[index].T @ ((slope * net_product[index])[:, None] * efficiencies)
         if self.activity_basis == "concentration":
             return jacobian
         return jacobian @ jax.jacfwd(self.activity_concentrations)(concentrations)

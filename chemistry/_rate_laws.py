@@ -1,5 +1,5 @@
 """The rate laws of a mechanism's reaction types, each evaluated for all its reactions at once:
-the differentiable rate parameters, three-body efficiencies, falloff (Lindemann, Troe) and the
+the differentiable rate parameters, three-body efficiencies, falloff (Lindemann, Troe, SRI) and the
 concentration products of mass action with their orders."""
 
 import functools
@@ -40,13 +40,19 @@ class ThirdBodies(eqx.Module):
 
 
 class Falloff(eqx.Module):
-    """Falloff reactions (Lindemann and Troe; Lindemann is Troe with F_cent = 1).
+    """Falloff reactions (Lindemann, Troe and SRI): k = k_high Pr / (1 + Pr) F_Troe F_SRI, where a
+    Troe reaction has the SRI factor's neutral parameters, an SRI reaction the Troe factor's and a
+    Lindemann reaction both (each factor is then exactly 1).
 
     - `index`: shape `(f,)`; `efficiencies`: `(f, n_species)`.
     - `low_a` [kmol, m^3, s units of one order more than the high-pressure limit], `low_b` [-],
       `low_activation_temperature` [K]: the low-pressure Arrhenius limit.
     - `troe_a` [-], `troe_inv_t3` = 1/T3 [1/K], `troe_inv_t1` = 1/T1 [1/K], `troe_t2` [K],
       `troe_has_t2` (0 or 1): the Troe centring; 1/T = 0 stands for an infinite or absent T.
+      Neutral: all 0.
+    - `sri_a` [-], `sri_b` [K], `sri_c` [K], `sri_d` [-], `sri_e` [-]: F_SRI = d T^e
+      [a exp(-b/T) + exp(-T/c)]^X with X = 1 / (1 + log10(Pr)^2) (c = 0: no exp(-T/c) term, as
+      in Cantera; the 3-parameter form has d = 1, e = 0). Neutral: a = 1, b = c = 0, d = 1, e = 0.
     """
 
     index: Indices
@@ -59,6 +65,11 @@ class Falloff(eqx.Module):
     troe_inv_t1: Vector
     troe_t2: Vector
     troe_has_t2: Vector
+    sri_a: Vector
+    sri_b: Vector
+    sri_c: Vector
+    sri_d: Vector
+    sri_e: Vector
 
     def rate(self, temperature, log_t, k_high, collision):
         """The falloff rate constants, shape `(f,)`, from the high-pressure limits `k_high` and
@@ -74,7 +85,15 @@ class Falloff(eqx.Module):
         n = 0.75 - 1.27 * log_f_cent
         f1 = (log_pr + c) / (n - 0.14 * (log_pr + c))
         broadening = 10.0 ** (log_f_cent / (1 + f1 * f1))
-        return k_high * reduced_pressure / (1 + reduced_pressure) * broadening
+        return k_high * reduced_pressure / (1 + reduced_pressure) * broadening * self._sri(temperature, log_t, log_pr)
+
+    def _sri(self, temperature, log_t, log_pr):
+        """F_SRI of each reaction, shape `(f,)`. c = 0 (no term) goes through a double where, so
+        that neither the value nor a derivative divides by zero."""
+        no_c = self.sri_c == 0.0
+        c_term = jnp.where(no_c, 0.0, jnp.exp(-temperature / jnp.where(no_c, 1.0, self.sri_c)))
+        base = self.sri_a * jnp.exp(-self.sri_b / temperature) + c_term
+        return self.sri_d * jnp.exp(self.sri_e * log_t) * base ** (1.0 / (1.0 + log_pr * log_pr))
 
 
 def _integer_slots(order):

@@ -10,12 +10,16 @@ from snapo_ode import InputError
 
 from ._equation import parse_equation
 from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
+from ._rate_reader import (arrhenius, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev, stack_plog,
+                           troe_parameters)
 from ._thermo import SpeciesThermo
-from ._units import GAS_CONSTANT, ONE_ATM, UnitSystem, rate_constant_factor
+from ._units import GAS_CONSTANT, ONE_ATM, UnitSystem
 
 _THERMO_MODELS = ("ideal-gas", "ideal-condensed")
 _ACTIVITY_BASES = ("unity", "species-molar-volume", "solvent-molar-volume")
-_SUPPORTED_TYPES = ("elementary", "three-body", "falloff")
+_PRESSURE_TYPES = ("pressure-dependent-Arrhenius", "Chebyshev")
+_SUPPORTED_TYPES = ("elementary", "three-body", "falloff", *_PRESSURE_TYPES)
+_SUPPORTED = "elementary, three-body, falloff (Lindemann, Troe, SRI), pressure-dependent-Arrhenius (PLOG), Chebyshev"
 
 
 def _load(path: Path):
@@ -124,11 +128,15 @@ class _Reaction:
         kind = node.get("type")
         if kind is None:
             kind = "falloff" if eq.falloff else ("three-body" if eq.collider else "elementary")
-        if kind == "falloff" and ("SRI" in node or "Tsang" in node):
-            kind = "falloff (SRI)" if "SRI" in node else "falloff (Tsang)"
-        if kind not in _SUPPORTED_TYPES or any(key in node for key in ("rate-constants", "data", "sticking-coefficient")):
-            raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: "
-                             "elementary, three-body, falloff (Lindemann, Troe).")
+        if kind == "falloff" and "Tsang" in node:
+            kind = "falloff (Tsang)"
+        misplaced = ("rate-constants", "data", "sticking-coefficient") if kind not in _PRESSURE_TYPES else ()
+        if kind not in _SUPPORTED_TYPES or any(key in node for key in misplaced):
+            raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: {_SUPPORTED}.")
+        # Cantera ignores a '(+M)' on a Chebyshev reaction (deprecated) and refuses any other collider.
+        if kind in _PRESSURE_TYPES and not (eq.collider is None or (kind == "Chebyshev" and eq.collider == "M"
+                                                                    and eq.falloff)):
+            raise InputError(f"{label}: a {kind} reaction with a third body is not supported.")
         for name in (*eq.reactants, *eq.products):
             if name not in species:
                 raise InputError(f"{label}: species {name!r} is not in the phase.")
@@ -144,10 +152,16 @@ class _Reaction:
                 raise InputError(f"{label}: orders names non-reactant {name!r}; set nonreactant-orders: true.")
             self.orders[name] = float(order)
         order = sum(self.orders.values()) + (kind == "three-body")
-        rate_key = "high-P-rate-constant" if kind == "falloff" else "rate-constant"
-        if rate_key not in node:
-            raise InputError(f"{label}: missing {rate_key!r}.")
-        self.a, self.b, self.t_a = self._arrhenius(label, node[rate_key], order, units, concentration_scaled)
+        self.pressure_rate = None
+        if kind in _PRESSURE_TYPES:
+            read = plog_table if kind == "pressure-dependent-Arrhenius" else chebyshev_fit
+            self.pressure_rate = read(label, node, order, units, concentration_scaled)
+            self.a, self.b, self.t_a = 0.0, 0.0, 0.0  # unused: the rate is the table's or the fit's
+        else:
+            rate_key = "high-P-rate-constant" if kind == "falloff" else "rate-constant"
+            if rate_key not in node:
+                raise InputError(f"{label}: missing {rate_key!r}.")
+            self.a, self.b, self.t_a = arrhenius(label, node[rate_key], order, units, concentration_scaled)
         if self.a < 0 and not node.get("negative-A", False):
             raise InputError(f"{label}: A = {self.a} is negative; allowed only with negative-A: true.")
         self.efficiencies = None
@@ -163,24 +177,11 @@ class _Reaction:
                         raise InputError(f"{label}: efficiency for {name!r}, which is not in the phase.")
                     self.efficiencies[name] = float(value)
         if kind == "falloff":
-            self.low = self._arrhenius(label, node["low-P-rate-constant"], order + 1, units, concentration_scaled)
-            troe = node.get("Troe")
-            if troe is None:
-                self.troe = (0.0, 0.0, 0.0, 0.0, 0.0)
-            else:
-                t3, t1 = float(troe["T3"]), float(troe["T1"])
-                # Cantera reads |T| below 1e-300 as infinite, i.e. that term vanishes.
-                inverse = [0.0 if abs(t) < 1e-300 else 1.0 / t for t in (t3, t1)]
-                self.troe = (float(troe["A"]), *inverse, float(troe.get("T2", 0.0)), float("T2" in troe))
+            self.low = arrhenius(label, node["low-P-rate-constant"], order + 1, units, concentration_scaled)
+            if "SRI" in node and "Troe" in node:
+                raise InputError(f"{label}: a falloff reaction has either Troe or SRI parameters, not both.")
+            self.troe, self.sri = troe_parameters(node.get("Troe")), sri_parameters(label, node.get("SRI"))
 
-    @staticmethod
-    def _arrhenius(label, rate, order, units, concentration_scaled):
-        a = rate["A"]
-        if isinstance(a, str):
-            a = units.convert(f"{label} A", a, "")
-        else:
-            a = float(a) * rate_constant_factor(units, order, concentration_scaled)
-        return a, float(rate.get("b", 0.0)), units.activation_temperature(f"{label} Ea", rate.get("Ea", 0.0))
 
 
 def _orders(species, rows):
@@ -252,6 +253,10 @@ def read_mechanism(cls, path, phase=None):
         first = next(r for r in reactions if r.reversible)
         raise InputError(f"{first.where}: reaction {first.index} ({first.equation}) is reversible in an "
                          "ideal-condensed phase; write it as two irreversible reactions.")
+    for r in reactions:
+        if thermo_model != "ideal-gas" and r.kind in _PRESSURE_TYPES:
+            raise InputError(f"{r.where}: reaction {r.index} ({r.equation}): a {r.kind} reaction needs the "
+                             "pressure of an ideal-gas phase; it is not supported in an ideal-condensed one.")
     n_s, n_r = len(species), len(reactions)
     reactant = np.zeros((n_r, n_s))
     product = np.zeros((n_r, n_s))
@@ -269,6 +274,10 @@ def read_mechanism(cls, path, phase=None):
 
     def column(rows, get):
         return jnp.asarray(np.array([get(r) for r in rows], dtype=float).reshape(len(rows)))
+
+    def pressure_rated(kind):
+        rows = [r for r in reactions if r.kind == kind]
+        return [r.index for r in rows], [r.pressure_rate for r in rows]
 
     return cls(
         species_names=tuple(species),
@@ -290,7 +299,10 @@ def read_mechanism(cls, path, phase=None):
             efficiencies(fall),
             *(column(fall, lambda r, j=j: r.low[j]) for j in range(3)),
             *(column(fall, lambda r, j=j: r.troe[j]) for j in range(5)),
+            *(column(fall, lambda r, j=j: r.sri[j]) for j in range(5)),
         ),
+        plog=stack_plog(*pressure_rated("pressure-dependent-Arrhenius")),
+        chebyshev=stack_chebyshev(*pressure_rated("Chebyshev")),
         parameters=RateParameters(
             jnp.zeros(n_r),
             column(reactions, lambda r: r.b),

@@ -37,11 +37,12 @@ def test_rates_match_cantera_at_random_states(mechanisms, name):
 def test_reaction_types_mechanism_has_every_supported_type(mechanisms):
     gas = cantera.Solution(str(MECHANISM_PATHS["reaction_types"]))
     kinds = {reaction.reaction_type for reaction in gas.reactions()}
-    assert kinds == {"Arrhenius", "three-body-Arrhenius", "falloff-Lindemann", "falloff-Troe"}
+    assert kinds == {"Arrhenius", "three-body-Arrhenius", "falloff-Lindemann", "falloff-Troe", "falloff-SRI",
+                     "pressure-dependent-Arrhenius", "Chebyshev"}
     mechanism = mechanisms["reaction_types"]
     assert float(mechanism.pre_exponential.min()) < 0  # the negative-A duplicate
     assert not bool(mechanism.thermo.is_nasa.all())  # constant-cp species
-    assert mechanism.n_reactions - mechanism.reversible_index.size == 2  # irreversible ones
+    assert mechanism.n_reactions - mechanism.reversible_index.size == 3  # irreversible ones
 
 
 def _state(mechanism, seed):
@@ -121,20 +122,11 @@ def test_concentration_jacobian_matches_autodiff_and_central_differences(mechani
 
 
 _UNSUPPORTED = {
-    "pressure-dependent-Arrhenius": """
-  type: pressure-dependent-Arrhenius
-  rate-constants:
-  - {P: 1 atm, A: 1.0e+13, b: 0.0, Ea: 0.0}""",
-    "Chebyshev": """
-  type: Chebyshev
-  temperature-range: [300.0, 2000.0]
-  pressure-range: [0.01 atm, 100 atm]
-  data: [[1.0]]""",
-    "falloff (SRI)": """
+    "falloff (Tsang)": """
   type: falloff
   low-P-rate-constant: {A: 1.0e+18, b: -1.0, Ea: 0.0}
   high-P-rate-constant: {A: 1.0e+13, b: 0.0, Ea: 0.0}
-  SRI: {A: 1.1, B: 700.0, C: 1234.0}""",
+  Tsang: {A: 0.5, B: 0.001}""",
     "chemically-activated": """
   type: chemically-activated
   low-P-rate-constant: {A: 1.0e+18, b: -1.0, Ea: 0.0}
@@ -145,12 +137,13 @@ _UNSUPPORTED = {
 @pytest.mark.parametrize("kind", sorted(_UNSUPPORTED))
 def test_unsupported_reaction_type_is_named_with_its_index_and_line(tmp_path, kind):
     text = MECHANISM_PATHS["reaction_types"].read_text()
-    equation = "A + B (+M) <=> C (+M)" if kind != "pressure-dependent-Arrhenius" else "A + B <=> C"
+    equation = "A + B (+M) <=> C (+M)"
     text += f"- equation: {equation}{_UNSUPPORTED[kind]}\n"
     path = tmp_path / "bad.yaml"
     path.write_text(text)
     line = text.count("\n", 0, text.index(f"- equation: {equation}\n")) + 1
-    with pytest.raises(snapo_ode.InputError, match=rf"bad.yaml:{line}: reaction 10 .*{re.escape(kind)}"):
+    n_reactions = cantera.Solution(str(MECHANISM_PATHS["reaction_types"])).n_reactions
+    with pytest.raises(snapo_ode.InputError, match=rf"bad.yaml:{line}: reaction {n_reactions} .*{re.escape(kind)}"):
         Mechanism.from_yaml(path)
 
 

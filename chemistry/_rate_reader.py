@@ -1,0 +1,110 @@
+"""Reading one reaction's rate expression into SI numbers (Arrhenius, Troe and SRI falloff
+parameters, PLOG table, Chebyshev fit), and stacking the PLOG and Chebyshev reactions into the
+padded arrays of `Plog` and `Chebyshev`."""
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+
+from snapo_ode import InputError
+
+from ._pressure_rates import Chebyshev, Plog
+from ._units import UnitSystem, rate_constant_factor
+
+
+def arrhenius(label: str, rate, order: float, units: UnitSystem, concentration_scaled: bool):
+    """(A [SI], b [-], Ea/R [K]) of an Arrhenius mapping {A, b, Ea} of a rate of `order`."""
+    a = rate["A"]
+    if isinstance(a, str):
+        a = units.convert(f"{label} A", a, "")
+    else:
+        a = float(a) * rate_constant_factor(units, order, concentration_scaled)
+    return a, float(rate.get("b", 0.0)), units.activation_temperature(f"{label} Ea", rate.get("Ea", 0.0))
+
+
+def troe_parameters(troe):
+    """(A, 1/T3 [1/K], 1/T1 [1/K], T2 [K], has T2) of a `Troe` mapping, or the neutral zeros
+    without one (Lindemann); Cantera reads |T| below 1e-300 as infinite: 1/T = 0, no term."""
+    if troe is None:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    inverse = [0.0 if abs(float(troe[key])) < 1e-300 else 1.0 / float(troe[key]) for key in ("T3", "T1")]
+    return float(troe["A"]), *inverse, float(troe.get("T2", 0.0)), float("T2" in troe)
+
+
+def sri_parameters(label: str, sri):
+    """(a, b [K], c [K], d, e) of an `SRI` mapping, or the neutral (1, 0, 0, 1, 0) without one;
+    Cantera's checks: 3 or 5 parameters, c >= 0, d >= 0."""
+    if sri is None:
+        return 1.0, 0.0, 0.0, 1.0, 0.0
+    if set(sri) not in ({"A", "B", "C"}, {"A", "B", "C", "D", "E"}):
+        raise InputError(f"{label}: SRI needs A, B, C or A, B, C, D, E; got {', '.join(map(str, sri))}.")
+    values = tuple(float(sri.get(key, default)) for key, default in zip("ABCDE", (0.0, 0.0, 0.0, 1.0, 0.0)))
+    if values[2] < 0 or values[3] < 0:
+        raise InputError(f"{label}: SRI C and D must not be negative; got C = {values[2]}, D = {values[3]}.")
+    return values
+
+
+def plog_table(label: str, node, order: float, units: UnitSystem, concentration_scaled: bool):
+    """A PLOG reaction's `rate-constants` as [(ln P [ln Pa], [(A, b, Ea/R), ...]), ...], ascending
+    in P, the expressions given at one pressure grouped (Cantera sums them)."""
+    levels: dict[float, list] = {}
+    for rate in node.get("rate-constants") or []:
+        pressure = units.convert(f"{label} P", rate["P"], "pressure")
+        if not pressure > 0:
+            raise InputError(f"{label}: PLOG pressure P = {rate['P']!r} is not positive.")
+        levels.setdefault(math.log(pressure), []).append(arrhenius(label, rate, order, units, concentration_scaled))
+    if not levels:
+        raise InputError(f"{label}: a pressure-dependent-Arrhenius reaction needs a non-empty 'rate-constants' list.")
+    return sorted(levels.items())
+
+
+def chebyshev_fit(label: str, node, order: float, units: UnitSystem, concentration_scaled: bool):
+    """A Chebyshev reaction as (coefficients (n_T, n_P) for k in SI, (T_min, T_max) [K],
+    (P_min, P_max) [Pa]); a_00 absorbs the log10 of the rate constant's unit conversion, as in
+    Cantera."""
+    rows = [[float(value) for value in row] for row in node["data"]]
+    if not rows or any(len(row) != len(rows[0]) or not row for row in rows):
+        raise InputError(f"{label}: Chebyshev 'data' must be a non-empty rectangular list of rows.")
+    coefficients = np.array(rows)
+    coefficients[0, 0] += math.log10(rate_constant_factor(units, order, concentration_scaled))
+    t_range = [units.convert(f"{label} temperature-range", t, "temperature") for t in node["temperature-range"]]
+    p_range = [units.convert(f"{label} pressure-range", p, "pressure") for p in node["pressure-range"]]
+    if len(t_range) != 2 or len(p_range) != 2 or not (0 < t_range[0] < t_range[1] and 0 < p_range[0] < p_range[1]):
+        raise InputError(f"{label}: Chebyshev temperature-range and pressure-range must be increasing "
+                         "positive pairs.")
+    return coefficients, t_range, p_range
+
+
+def stack_plog(index: list[int], tables: list) -> Plog:
+    """`Plog` of the reactions `index` with their `plog_table`s, padded to the longest table and
+    the most expressions at one pressure."""
+    n_levels = max([len(table) for table in tables] + [1])
+    n_terms = max([len(terms) for table in tables for _, terms in table] + [1])
+    shape = (len(tables), n_levels, n_terms)
+    log_pressure = np.zeros(shape[:2])
+    terms = np.zeros((3, *shape))
+    segment_weight = np.zeros((len(tables), n_levels - 1))
+    for g, table in enumerate(tables):
+        padded = table + [(table[-1][0] + j + 1, table[-1][1]) for j in range(n_levels - len(table))]
+        for level, (log_p, expressions) in enumerate(padded):
+            log_pressure[g, level] = log_p
+            terms[:, g, level, :len(expressions)] = np.array(expressions).T
+        segment_weight[g, :len(table) - 1] = 1.0
+    return Plog(jnp.asarray(np.array(index, np.int32)), jnp.asarray(log_pressure),
+                *(jnp.asarray(part) for part in terms), jnp.asarray(segment_weight))
+
+
+def stack_chebyshev(index: list[int], fits: list) -> Chebyshev:
+    """`Chebyshev` of the reactions `index` with their `chebyshev_fit`s, zero-padded to the
+    largest fit."""
+    n_t = max([fit[0].shape[0] for fit in fits] + [1])
+    n_p = max([fit[0].shape[1] for fit in fits] + [1])
+    coefficients = np.zeros((len(fits), n_t, n_p))
+    for g, (fit, _, _) in enumerate(fits):
+        coefficients[g, :fit.shape[0], :fit.shape[1]] = fit
+    t_range = np.array([fit[1] for fit in fits]).reshape(len(fits), 2)
+    p_range = np.array([fit[2] for fit in fits]).reshape(len(fits), 2)
+    return Chebyshev(jnp.asarray(np.array(index, np.int32)), jnp.asarray(coefficients),
+                     jnp.asarray(1.0 / t_range[:, 0]), jnp.asarray(1.0 / t_range[:, 1]),
+                     jnp.asarray(np.log10(p_range[:, 0])), jnp.asarray(np.log10(p_range[:, 1])))
