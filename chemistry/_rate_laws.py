@@ -109,8 +109,9 @@ class Orders(eqx.Module):
     Orders 0 to 3 are evaluated as products (c, c * c, ...), not as `c ** order`: the power's
     second derivative at c = 0 is 0 * inf = NaN, and the reverse pass of a Rosenbrock solve
     (which differentiates the Jacobian) meets it at every species that starts at zero. Other
-    orders (explicit fractional `orders`) use the power, its derivatives singular at c = 0 as
-    the rate law's are. `fractional` says (statically) whether any slot has such an order: when
+    orders (explicit fractional or negative `orders`) use the power where c > 0 and are 0
+    where c <= 0, as Cantera computes them (a negative order's factor would be infinite at 0),
+    with finite derivatives everywhere. `fractional` says (statically) whether any slot has such an order: when
     none has, the power is not computed at all (gri30: a general power on every slot was 40% of
     a Rosenbrock step, measured).
 
@@ -138,10 +139,13 @@ class Orders(eqx.Module):
         if not self.fractional:
             return integer, integer_slope
         is_integer = _integer_slots(order)
-        # The power of a base set to 1 on the integer slots, so its derivatives there are finite.
-        base = jnp.where(is_integer, 1.0, c)
-        return (jnp.where(is_integer, integer, base**order),
-                jnp.where(is_integer, integer_slope, order * base ** (order - 1.0)))
+        # As Cantera: a non-integer (fractional or negative) order's factor is 0 where the
+        # concentration is not positive (c ** -0.5 would be infinite at 0). The power's base is 1
+        # on the slots that do not use it, so its derivatives stay finite there too.
+        power = ~is_integer & (c > 0.0)
+        base = jnp.where(power, c, 1.0)
+        return (jnp.where(is_integer, integer, jnp.where(power, base**order, 0.0)),
+                jnp.where(is_integer, integer_slope, jnp.where(power, order * base ** (order - 1.0), 0.0)))
 
     def product(self, padded_concentrations):
         """prod_j c_j ** order_j of each reaction, shape `(r,)`."""
