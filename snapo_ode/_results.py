@@ -65,8 +65,11 @@ class Result:
         raise NotImplementedError
 
     def write_json(self, path: str | os.PathLike) -> pathlib.Path:
-        """Write `to_json()` to `path` atomically (NaN and infinities are refused)."""
-        return atomic_write_json(path, self.to_json())
+        """Write `to_json()` to `path` atomically; a NaN or an infinity anywhere in it raises
+        `SolverFailed` naming the field, and nothing is written."""
+        payload = self.to_json()
+        _refuse_non_finite(payload)
+        return atomic_write_json(path, payload)
 
     def publish(self, path: str | os.PathLike, attachments: Mapping[str, bytes] | None = None
                 ) -> list[pathlib.Path]:
@@ -77,9 +80,33 @@ class Result:
         path = pathlib.Path(path)
         files = {path.with_suffix(suffix): data for suffix, data in (attachments or {}).items()}
         payload = self.to_json()
+        _refuse_non_finite(payload)
         if files:
             payload["attachments"] = {name.name: sha256(data) for name, data in files.items()}
         return publish({**files, path: json_bytes(payload)})
+
+
+def _non_finite(payload, path: str = "") -> str | None:
+    """The path ("a.b[3]") of the first NaN or infinity in a JSON payload, or None."""
+    if isinstance(payload, float):
+        return None if np.isfinite(payload) else path
+    items = payload.items() if isinstance(payload, dict) else enumerate(payload) if isinstance(payload, list) else ()
+    for key, value in items:
+        found = _non_finite(value, f"{path}[{key}]" if isinstance(key, int) else f"{path}.{key}" if path else key)
+        if found is not None:
+            return found
+    return None
+
+
+def _refuse_non_finite(payload: dict) -> None:
+    """Never a silent NaN: a result with a non-finite number is a failed computation."""
+    from ._ode import SolverFailed
+
+    path = _non_finite(payload)
+    if path is not None:
+        raise SolverFailed(f"the result's {path} is not finite: a numerical failure upstream, so nothing was "
+                           "written. Run again with --debug to see where, or loosen the case (a shorter time, "
+                           "a tighter tolerance, fewer paths).")
 
 
 def _fields(result: Result) -> dict:
