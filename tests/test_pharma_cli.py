@@ -26,6 +26,21 @@ def test_sensitivities_json_has_the_issue_keys(tmp_path, capsys):
     assert study["reference_rel_error"] <= 1e-6
     assert len(study["parameter_sensitivities"]["impurity"]) == 43
     assert "impurity" in capsys.readouterr().out
+    assert not [w for w in study["warnings"] if w.startswith("solver error")]  # 1e-10 is accurate enough
+
+
+def test_a_loose_tolerance_warns_and_strict_refuses(tmp_path, capsys):
+    # Before: an assay of 90.4% and 95,116 ppm of solvent (nominal 99.85%, 126 ppm) with no warning.
+    out = tmp_path / "loose.json"
+    loose = ["pharma", "sensitivities", "--rtol", "0.5", "--atol", "0.005", "--no-bumps", "--repeats", "1",
+             "--no-progress"]
+    assert main([*loose, "--json", str(out)]) == 0
+    warnings = [w for w in json.loads(out.read_text())["warnings"] if w.startswith("solver error")]
+    assert len(warnings) == 3 and "tighten --rtol" in warnings[0]
+    assert "snapo: warning: solver error" in capsys.readouterr().err
+    strict = tmp_path / "strict.json"
+    assert main([*loose, "--strict", "--json", str(strict)]) == 3
+    assert "--strict" in capsys.readouterr().err and not strict.exists()
 
 
 @pytest.mark.parametrize(("argv", "field"), [

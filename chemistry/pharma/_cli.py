@@ -4,6 +4,7 @@ Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` sta
 """
 
 import argparse
+import sys
 
 from snapo_ode.cli import add_training_options
 
@@ -45,15 +46,21 @@ def _finish(result, path) -> int:
 
 
 def run_sensitivities(args) -> int:
-    from snapo_ode import check_choice
+    from snapo_ode import SolverFailed, check_choice
 
     from ._study import REFERENCE, sensitivity_study
 
     check_choice("mode", args.mode, ("auto", "reverse", "forward"))
     chain, cpps = chain_from_args(args)
     reference = None if args.no_reference else REFERENCE.replace(rtol=args.reference_rtol, atol=args.reference_atol)
-    return _finish(sensitivity_study(chain, cpps, mode=args.mode, repeats=args.repeats, check_bumps=not args.no_bumps,
-                                     reference=reference), args.json)
+    study = sensitivity_study(chain, cpps, mode=args.mode, repeats=args.repeats, check_bumps=not args.no_bumps,
+                              reference=reference, max_solver_error=args.max_solver_error)
+    solver_errors = [warning for warning in study.warnings if warning.startswith("solver error")]
+    for warning in solver_errors:
+        print(f"snapo: warning: {warning}", file=sys.stderr)
+    if args.strict and solver_errors:
+        raise SolverFailed(f"--strict: {solver_errors[0]} (nothing written).")
+    return _finish(study, args.json)
 
 
 def run_train(args) -> int:
@@ -130,6 +137,10 @@ def register_pharma(cli) -> None:
     sens.add_argument("--no-reference", action="store_true", help="skip the tight-tolerance reference")
     sens.add_argument("--reference-rtol", type=float, default=1e-12)
     sens.add_argument("--reference-atol", type=float, default=1e-14)
+    sens.add_argument("--max-solver-error", type=float, default=1e-4, help="relative error against the reference "
+                      "above which the result warns (JSON, stderr)")
+    sens.add_argument("--strict", action="store_true", help="a solver error above --max-solver-error is an error "
+                      "(exit 3), not a warning")
     sens.set_defaults(handler=run_sensitivities)
     train = cli.command("train", "train the R1 jacket and crystallizer cooling profiles for yield, specs as "
                         "smooth penalties; evaluate with hard spec checks (policies beside the JSON)", group=pharma)

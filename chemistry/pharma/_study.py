@@ -99,11 +99,26 @@ def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto"
     return named_jacobian(chain, inputs, values, matrix, mode), timing
 
 
+MAX_SOLVER_ERROR = 1e-4
+"""Relative error against the tight-tolerance reference above which a study warns."""
+
+
+def solver_error_warnings(checks: dict, rtol: float, threshold: float = MAX_SOLVER_ERROR) -> list[str]:
+    """A warning for each reference error in `checks` above `threshold` (relative)."""
+    what = {"reference_cqa_rel_error": "the CQAs", "reference_rel_error": "the 20 dCQA/dCPP",
+            "reference_rel_error_parameters": "the parameter sensitivities"}
+    return [f"solver error: {label} are off by {checks[key]:.1e} relative against the reference, above "
+            f"{threshold:g}: tighten --rtol (now {rtol:g})" for key, label in what.items()
+            if checks.get(key) is not None and checks[key] > threshold]
+
+
 def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
-                      check_bumps: bool = True, reference=REFERENCE) -> SensitivityStudy:
+                      check_bumps: bool = True, reference=REFERENCE,
+                      max_solver_error: float = MAX_SOLVER_ERROR) -> SensitivityStudy:
     """Every CQA's sensitivity to every CPP and parameter at `cpps`, timed, next to Richardson
     central differences (at `BUMP_SOLVER`'s tolerances) and the Jacobian at `reference`'s
-    tolerances (None: skipped)."""
+    tolerances (None: skipped). Errors against the reference above `max_solver_error`
+    (relative) are warnings in the result (`solver_error_warnings`)."""
     inputs = chain.inputs(cpps)
     mode = resolve_mode(mode, len(input_names(chain)))
     scales = input_scales(inputs)
@@ -133,7 +148,8 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
                       reference_solver=reference.as_dict())
     parameters = parameter_names(chain)
     return SensitivityStudy(
-        cpps=cpps.as_dict(), warnings=outside_par(cpps),
+        cpps=cpps.as_dict(),
+        warnings=outside_par(cpps) + solver_error_warnings(checks, chain.solver.rtol, max_solver_error),
         cqas={name: float(v) for name, v in zip(CQA_NAMES, np.asarray(jac.values), strict=True)},
         matrix=jac.named(CPP_NAMES), normalized=by_name(normalized(jac, inputs, CPP_NAMES), CPP_NAMES),
         parameter_sensitivities=jac.named(parameters),
