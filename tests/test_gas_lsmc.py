@@ -143,3 +143,13 @@ def test_cli_lsmc_without_stochastic_is_refused(tmp_path, capsys):
 
     assert main(["gas", "--sample", "bdj", "--lsmc", "--json", str(tmp_path / "x.json")]) == 2
     assert "--lsmc needs --stochastic" in capsys.readouterr().err
+
+
+def test_cli_lsmc_on_a_grid_that_cannot_trade_is_refused_before_computing(tmp_path, capsys):
+    # Before: the sample facility's 9,900 MMBtu/day injection (after fuel loss) is under the
+    # 101-node grid's 10,000 step, the grid DP never moved, and the gap divided by a zero bound.
+    from snapo_ode.cli import main
+
+    assert main(["gas", "--stochastic", "--lsmc", "--no-progress", "--json", str(tmp_path / "x.json")]) == 2
+    error = capsys.readouterr().err
+    assert "lsmc_nodes = 101" in error and "--lsmc-nodes 106" in error and not (tmp_path / "x.json").exists()

@@ -6,7 +6,7 @@ each method."""
 import jax
 import numpy as np
 
-from snapo_ode import agreement
+from snapo_ode import InputError, agreement
 
 from ._certificate import duality_gaps, lsmc_deltas
 from ._inputs import StorageInputs
@@ -24,6 +24,26 @@ def lsmc_fit_shocks(settings: StudySettings, n_days: int) -> jax.Array:
     return jax.random.normal(jax.random.fold_in(jax.random.key(settings.seed), LSMC_KEY), (settings.paths, n_days))
 
 
+def check_grid_trades(inputs: StorageInputs, nodes: int) -> None:
+    """Refuse, before any compile, an LSMC grid whose step exceeds the largest daily injection
+    (after fuel loss) or withdrawal: the grid policy, the dual bound and the perfect-foresight DP
+    could then never move (rates are rounded down to whole steps) and would be worth 0."""
+    spacing = float(inputs.capacity) / (nodes - 1)
+    kept = 1.0 - float(inputs.fuel_loss)
+    largest = {"injection": kept * float(inputs.max_injection) * float(np.max(np.asarray(inputs.injection_ratchet)[:, 1])),
+               "withdrawal": float(inputs.max_withdrawal) * float(np.max(np.asarray(inputs.withdrawal_ratchet)[:, 1]))}
+    verbs = {"injection": "inject", "withdrawal": "withdraw"}
+    for flow, amount in largest.items():
+        if amount < spacing:
+            needed = int(np.ceil(float(inputs.capacity) / amount)) + 1
+            on_grid = lambda n: abs(float(inputs.initial_inventory) * (n - 1) / float(inputs.capacity)  # noqa: E731
+                                    - round(float(inputs.initial_inventory) * (n - 1) / float(inputs.capacity))) < 1e-9
+            needed = next((n for n in range(needed, needed + 10_000) if on_grid(n)), needed)
+            raise InputError(f"lsmc_nodes = {nodes} makes the inventory grid step {spacing:,.0f}, more than the largest "
+                             f"daily {flow} ({amount:,.0f}): the grid could never {verbs[flow]}. Use "
+                             f"--lsmc-nodes {needed} or more (allowed: a step no larger than a day's flow).")
+
+
 def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: int = 101, degree: int = 3,
                       foresight_paths: int = 256, lattice_points: int = 200) -> LSMCComparison:
     """Run the SNAPO study (`run_study`, stochastic) and value the contract by LSMC with
@@ -33,6 +53,7 @@ def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: 
     the deltas on all of them (`_certificate.py`)."""
     if not settings.stochastic:
         raise ValueError("the LSMC comparison needs StudySettings(stochastic=True)")
+    check_grid_trades(inputs, nodes)
     study = run_study(inputs, settings)
     scene = stochastic_scene()
     eval_prices, _ = spot_prices(inputs, study.evaluation_shocks)
