@@ -9,6 +9,7 @@ Public names load lazily, on first use (`snapo_ode._lazy`).
 from ._lazy import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "._accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "write_accuracy"),
     "._config": ("ConfigurationError", "configure", "default_cache_dir", "require_float64"),
     "._effects": ("EffectCatalogue", "Scene"),
     "._io": ("MANIFEST", "atomic_write_bytes", "atomic_write_json", "atomic_write_text", "check_replaceable_directory",
@@ -31,7 +32,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._sensitivity": ("Jacobian", "JacobianMode", "choose_mode", "flatten_inputs", "input_names", "jacobian",
                       "value_and_sensitivities"),
     "._solver": ("SOLVERS", "STIFF_SOLVERS", "SolverName", "SolverSettings"),
-    "._tables": ("Column", "format_table", "write_table"),
+    "._tables": ("Column", "format_table", "records_csv", "write_table"),
     "._timing": ("Timing", "time_function", "time_once"),
     "._training": ("TrainingDiverged", "TrainResult", "default_optimizer", "load_checkpoint", "save_checkpoint",
                    "train"),

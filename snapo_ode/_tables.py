@@ -36,19 +36,24 @@ def format_table(rows: Sequence[Mapping], columns: Sequence[Column]) -> str:
     return "\n".join(lines)
 
 
-def write_table(out: str | os.PathLike, name: str, rows: Sequence[Mapping], extra: Mapping | None = None,
-                files: Mapping[str, bytes] | None = None) -> list[pathlib.Path]:
-    """Write `rows` as `out/name.csv` (the union of the rows' keys as columns, in first-seen
-    order; values quoted by the `csv` module), any other `files` (name -> bytes, e.g. a plot) and
-    `{"rows": rows, **extra}` as `out/name.json`, as one set (`snapo_ode.publish`, the JSON last).
-    Returns the paths, the CSV first and the JSON last."""
-    out = pathlib.Path(out)
+def records_csv(rows: Sequence[Mapping]) -> bytes:
+    """`rows` (mappings) as CSV: the union of their keys as columns, in first-seen order; values
+    quoted by the `csv` module."""
     columns = list(dict.fromkeys(key for row in rows for key in row))
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=columns, lineterminator="\n")
     writer.writeheader()
     for row in rows:
         writer.writerow({key: jsonable(row.get(key)) for key in columns})
-    return publish({out / f"{name}.csv": buffer.getvalue().encode("utf-8"),
+    return buffer.getvalue().encode("utf-8")
+
+
+def write_table(out: str | os.PathLike, name: str, rows: Sequence[Mapping], extra: Mapping | None = None,
+                files: Mapping[str, bytes] | None = None) -> list[pathlib.Path]:
+    """Write `rows` as `out/name.csv` (`records_csv`), any other `files` (name -> bytes, e.g. a
+    plot) and `{"rows": rows, **extra}` as `out/name.json`, as one set (`snapo_ode.publish`, the
+    JSON last). Returns the paths, the CSV first and the JSON last."""
+    out = pathlib.Path(out)
+    return publish({out / f"{name}.csv": records_csv(rows),
                     **{out / file: data for file, data in (files or {}).items()},
                     out / f"{name}.json": json_bytes(jsonable({"rows": list(rows), **(extra or {})}))})

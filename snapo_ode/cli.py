@@ -3,7 +3,9 @@
 A plugin is a function `register(cli: CommandLine) -> None` that adds its verbs with
 `cli.command(name, help)`, `cli.bench(name, help)` and `cli.report(name, help)`; each returns an
 `argparse.ArgumentParser` whose `handler` default (`parser.set_defaults(handler=fn)`) is called
-with the parsed arguments. The core itself never imports a domain.
+with the parsed arguments. `cli.accuracy(name, run)` adds a study to `snapo bench accuracy`, which
+runs every registered study (`--only NAME`, `--quick`) and writes one page of them
+(`snapo_ode.write_accuracy`). The core itself never imports a domain.
 
 Every verb, bench and report gets the same options from the core:
 
@@ -121,6 +123,13 @@ class CommandLine:
         report = self._verbs.add_parser("report", help="write a report (HTML, PDF, CSV, JSON) to a directory")
         self._reports = report.add_subparsers(dest="report", metavar="NAME")
         self._groups: dict[int, str] = {}
+        self._accuracy: dict[str, Callable] = {}
+        accuracy = self.bench("accuracy", "what accuracy costs in time: error against wall time per solver, "
+                              "adjoint, smoothing sharpness and path count; writes OUT/accuracy.md, its plots and CSVs")
+        accuracy.add_argument("--quick", action="store_true", help="few settings, small problems (a minute or two)")
+        accuracy.add_argument("--only", action="append", metavar="NAME",
+                              help="run only this study (repeatable); default all")
+        accuracy.set_defaults(handler=self._run_accuracy)
 
     def command(self, name: str, help: str, *, group: "argparse._SubParsersAction | None" = None,
                 json_name: str | None = None) -> argparse.ArgumentParser:
@@ -145,6 +154,24 @@ class CommandLine:
         parser = self._benches.add_parser(name, help=help, description=help)
         add_common_options(parser, out=DEFAULT_OUT, json_name=f"bench_{name.replace('-', '_')}.json")
         return parser
+
+    def accuracy(self, name: str, run: Callable[[argparse.Namespace], Sequence]) -> None:
+        """Add a study to `snapo bench accuracy`: `run(args)` returns its `AccuracyStudy`s
+        (`args.quick` asks for the small version, `args.progress` for progress bars)."""
+        self._accuracy[name] = run
+
+    def _run_accuracy(self, args: argparse.Namespace) -> int:
+        from ._accuracy import write_accuracy
+
+        chosen = args.only or list(self._accuracy)
+        unknown = [name for name in chosen if name not in self._accuracy]
+        if unknown:
+            raise InputError(f"--only = {unknown[0]!r} is not a study; choose from {sorted(self._accuracy)}.")
+        studies = [study for name in chosen for study in self._accuracy[name](args)]
+        command = " ".join(args.command_line)
+        for path in write_accuracy(args.out, studies, command, {"quick": args.quick}, json_path=args.json):
+            print(f"written: {path}")
+        return 0
 
     def report(self, name: str, help: str) -> argparse.ArgumentParser:
         """A report: `snapo report NAME ...`, written into `--out` (default `snapo-out/NAME-report`)."""
