@@ -1,4 +1,6 @@
-"""Hard cases fail loudly or give correct finite numbers, never a NaN with exit code 0: a result
+"""Hard cases fail loudly or give correct finite numbers, never a NaN with exit code 0: a stiffness
+ratio above 1e8 (Robertson to 1e7 s), a 50-year monthly ALM and a 10-year daily gas horizon give
+finite gradients that match central bumps; a result
 with a non-finite number is refused naming the field; h2o2 ignition sensitivities from a hot
 start are taken in the induction (not at the built-in case's time, after the front, where every
 d ln T / d ln A is ~0 and both codes report noise) and match Cantera; where our reverse pass
@@ -9,10 +11,16 @@ import json
 import math
 
 import cantera
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import snapo_ode
+from finance import alm
+from finance import gas_storage as gs
 from snapo_ode.cli import main
 
 H2O2 = f"{cantera.__file__.rsplit('/', 1)[0]}/data/h2o2.yaml"
@@ -48,3 +56,66 @@ def test_h2o2_from_2500_K_late_in_the_induction_fails_loudly(tmp_path, capsys):
     assert main(["kinetics", "check", H2O2, "--temperature", "2500", "--states", "5", "--json", str(out),
                  "--no-progress"]) == 3
     assert "non-finite" in capsys.readouterr().err and not out.exists()
+
+
+def _robertson(t, y, k):
+    a, b, c = y[0], y[1], y[2]
+    return jnp.stack([-k[0] * a + k[1] * b * c, k[0] * a - k[1] * b * c - k[2] * b**2, k[2] * b**2])
+
+
+ROBERTSON_RATES = np.array([0.04, 1e4, 3e7])
+ROBERTSON_END = 1e7  # [s]: the Jacobian's stiffness ratio there is ~5e10
+
+
+def _robertson_end(rates):
+    solution = snapo_ode.diffeqsolve_checked(
+        diffrax.ODETerm(_robertson), snapo_ode.Rodas4(), 0.0, ROBERTSON_END, None, jnp.array([1.0, 0.0, 0.0]),
+        rates, stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-16), max_steps=20_000)
+    return solution.ys[-1]
+
+
+def test_a_stiffness_ratio_above_1e8_solves_and_differentiates():
+    from scipy.integrate import solve_ivp
+
+    end = np.asarray(jax.jit(_robertson_end)(jnp.asarray(ROBERTSON_RATES)))
+    jacobian = np.asarray(jax.jacfwd(lambda y: _robertson(0.0, y, jnp.asarray(ROBERTSON_RATES)))(jnp.asarray(end)))
+    eigenvalues = np.sort(np.abs(np.linalg.eigvals(jacobian)))
+    assert eigenvalues[2] / eigenvalues[1] > 1e8  # the smallest is zero: mass is conserved
+    reference = solve_ivp(lambda t, y: np.asarray(_robertson(t, y, ROBERTSON_RATES)), (0.0, ROBERTSON_END),
+                          [1.0, 0.0, 0.0], method="Radau", rtol=1e-12, atol=1e-20).y[:, -1]
+    np.testing.assert_allclose(end, reference, rtol=1e-6, atol=1e-14)
+    adjoint = np.asarray(jax.jit(jax.jacrev(_robertson_end))(jnp.asarray(ROBERTSON_RATES)))
+    bumps = snapo_ode.central_differences(jax.jit(_robertson_end), jnp.asarray(ROBERTSON_RATES), step_floor=0.0,
+                                          relative_step=1e-5)
+    assert np.all(np.isfinite(adjoint))
+    assert snapo_ode.max_relative_difference(adjoint, bumps) < 1e-5
+
+
+def test_fifty_year_monthly_alm_gradients_match_bumps():
+    study = alm.build_study(40, horizon_months=600)
+    shocks = alm.scenarios(study, 8, jax.random.key(3))
+    policy = alm.NeuralRebalancing(study.market, key=jax.random.key(4))
+    fn = alm.objective_of_reported(study.problem, study.fixed)
+    value, gradient = jax.jit(lambda r: snapo_ode.value_and_sensitivities(fn, r, policy, shocks))(study.reported)
+    bumps = snapo_ode.bump_and_revalue(fn, study.reported, policy, shocks, relative_step=1e-6)
+    assert np.isfinite(float(value))
+    assert all(np.all(np.isfinite(np.asarray(leaf))) for leaf in jax.tree.leaves(gradient))
+    assert snapo_ode.max_relative_difference(gradient, bumps) < 1e-6
+
+
+def test_ten_year_daily_gas_gradients_match_bumps():
+    years = 10
+    curve = np.tile(gs.sample_curve(), years) * np.repeat(1.0 + 0.02 * np.arange(years), 365)
+    inputs = gs.make_inputs(gs.sample_facility(), curve)
+    scene = gs.deterministic_scene()
+    policy = gs.make_policy(scene, inputs, key=jax.random.key(0))
+    days = jnp.array([0, 400, 1800, 2900, 3649])
+
+    def value_at(prices):  # the smooth value as a function of the forward price on `days`
+        bumped = eqx.tree_at(lambda i: i.forward_curve, inputs, inputs.forward_curve.at[days].set(prices))
+        return gs.expected_value(policy, bumped, scene, sharpness=200.0)
+
+    value, gradient = jax.jit(jax.value_and_grad(lambda i: gs.expected_value(policy, i, scene, sharpness=200.0)))(inputs)
+    assert np.isfinite(float(value)) and np.all(np.isfinite(np.asarray(gradient.forward_curve)))
+    bumps = snapo_ode.central_differences(jax.jit(value_at), inputs.forward_curve[days], relative_step=1e-6)
+    assert snapo_ode.max_relative_difference(np.asarray(gradient.forward_curve)[np.asarray(days)], bumps) < 1e-5
