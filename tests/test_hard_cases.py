@@ -119,3 +119,32 @@ def test_ten_year_daily_gas_gradients_match_bumps():
     assert np.isfinite(float(value)) and np.all(np.isfinite(np.asarray(gradient.forward_curve)))
     bumps = snapo_ode.central_differences(jax.jit(value_at), inputs.forward_curve[days], relative_step=1e-6)
     assert snapo_ode.max_relative_difference(np.asarray(gradient.forward_curve)[np.asarray(days)], bumps) < 1e-5
+
+
+TIMING_WORDS = ("second", "time", "_ms", "compile", "forward_ratio", "provenance", "date", "command")
+
+
+def _without_timings(payload):
+    """The JSON with every wall time, date and environment entry left out, and attachments by
+    their SHA-256 only (their names follow --json): what the seed decides."""
+    if isinstance(payload, dict):
+        return {key: sorted(value.values()) if key == "attachments" else _without_timings(value)
+                for key, value in payload.items() if not any(word in key for word in TIMING_WORDS)}
+    if isinstance(payload, list):
+        return [_without_timings(value) for value in payload]
+    return payload
+
+
+@pytest.mark.parametrize("verb", [
+    ["gas", "--stochastic", "--paths", "64", "--train-paths", "32", "--train-steps", "8"],
+    ["alm", "--risk-factors", "10", "--paths", "32", "--horizon-months", "12", "--train-steps", "4",
+     "--train-paths", "16"],
+], ids=["gas", "alm"])
+def test_the_same_seed_gives_bit_identical_results(verb, tmp_path):
+    runs = []
+    for name, seed in (("a", "5"), ("b", "5"), ("c", "6")):
+        path = tmp_path / f"{name}.json"
+        assert main([*verb, "--seed", seed, "--no-progress", "--out", str(tmp_path / name), "--json", str(path)]) == 0
+        runs.append(_without_timings(json.loads(path.read_text())))
+    assert runs[0] == runs[1]  # exact equality of every float, not a tolerance
+    assert runs[0] != runs[2]
