@@ -1,5 +1,11 @@
 """Shared test scaffolding: float64 and the compilation cache on once for the whole session
-(`snapo_ode.configure()`), Agg plotting, and a key fixture."""
+(`snapo_ode.configure()`), Agg plotting, and a key fixture.
+
+Each pytest-xdist worker compiles into a cache directory of its own (`SNAPO_CACHE_DIR`, unless
+set: the default cache's `tests/WORKER`), inherited by the `snapo` processes its tests start: two
+workers never read and write one cache at once (a worker died of a segmentation fault inside
+JAX's cache read in a CI run with a shared directory; not reproduced since). The tests of
+sharing one cache between processes make their own directories."""
 
 import os
 
@@ -10,7 +16,15 @@ import pytest  # noqa: E402
 
 import snapo_ode  # noqa: E402
 
-snapo_ode.configure()
+
+
+def pytest_configure(config):
+    workerinput = getattr(config, "workerinput", None)
+    if workerinput is None and getattr(config.option, "numprocesses", None):
+        return  # the xdist controller runs no test; its environment is the workers'
+    worker = workerinput["workerid"] if workerinput else "main"
+    os.environ.setdefault("SNAPO_CACHE_DIR", str(snapo_ode.default_cache_dir().parent / "tests" / worker))
+    snapo_ode.configure()
 
 
 @pytest.fixture
