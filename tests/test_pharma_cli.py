@@ -53,3 +53,13 @@ def test_a_loose_tolerance_warns_and_strict_refuses(tmp_path, capsys):
 def test_bad_input_is_an_error_naming_the_field(argv, field, capsys):
     assert main(["pharma", "sensitivities", "--json", "/dev/null", *argv]) == 2
     assert field in capsys.readouterr().err
+
+
+def test_the_report_refuses_a_loose_tolerance_under_strict_before_the_design_space(tmp_path, capsys):
+    out = tmp_path / "report"
+    code = main(["report", "pharma", "--rtol", "0.5", "--atol", "0.005", "--strict", "--repeats", "1", "--no-pdf",
+                 "--no-progress", "--out", str(out)])
+    assert code == 3
+    err = capsys.readouterr().err
+    assert "snapo: warning: solver error" in err and "--strict" in err
+    assert not out.exists()

@@ -27,6 +27,25 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
                         help="leave an effect out (repeatable)")
 
 
+def add_accuracy_arguments(parser: argparse.ArgumentParser) -> None:
+    """`--max-solver-error` and `--strict`: what the solver error against the tight reference may be."""
+    parser.add_argument("--max-solver-error", type=float, default=1e-4, help="relative error against the reference "
+                        "above which the result warns (JSON, stderr, report)")
+    parser.add_argument("--strict", action="store_true", help="a solver error above --max-solver-error is an "
+                        "error (exit 3, nothing written), not a warning")
+
+
+def check_solver_errors(args, warnings) -> None:
+    """Say each solver-error warning on stderr at once; with `--strict`, raise `SolverFailed`."""
+    from snapo_ode import SolverFailed
+
+    solver_errors = [warning for warning in warnings if warning.startswith("solver error")]
+    for warning in solver_errors:
+        print(f"snapo: warning: {warning}", file=sys.stderr)
+    if args.strict and solver_errors:
+        raise SolverFailed(f"--strict: {solver_errors[0]} (nothing written).")
+
+
 def chain_from_args(args):
     """The chain and the CPPs from parsed arguments, validated before any compile."""
     from ._chain import CHAIN_SOLVER, PHARMA_EFFECTS, PharmaChain
@@ -46,7 +65,7 @@ def _finish(result, path) -> int:
 
 
 def run_sensitivities(args) -> int:
-    from snapo_ode import SolverFailed, check_choice
+    from snapo_ode import check_choice
 
     from ._study import REFERENCE, sensitivity_study
 
@@ -55,11 +74,7 @@ def run_sensitivities(args) -> int:
     reference = None if args.no_reference else REFERENCE.replace(rtol=args.reference_rtol, atol=args.reference_atol)
     study = sensitivity_study(chain, cpps, mode=args.mode, repeats=args.repeats, check_bumps=not args.no_bumps,
                               reference=reference, max_solver_error=args.max_solver_error)
-    solver_errors = [warning for warning in study.warnings if warning.startswith("solver error")]
-    for warning in solver_errors:
-        print(f"snapo: warning: {warning}", file=sys.stderr)
-    if args.strict and solver_errors:
-        raise SolverFailed(f"--strict: {solver_errors[0]} (nothing written).")
+    check_solver_errors(args, study.warnings)
     return _finish(study, args.json)
 
 
@@ -98,7 +113,8 @@ def run_report(args) -> int:
     from ._report import build_report, pharma_report, report_provenance
 
     chain, cpps = chain_from_args(args)
-    data = build_report(chain, cpps, repeats=args.repeats, **_space_options(args))
+    data = build_report(chain, cpps, repeats=args.repeats, max_solver_error=args.max_solver_error,
+                        check_warnings=lambda warnings: check_solver_errors(args, warnings), **_space_options(args))
     return publish_report(args, pharma_report(data, report_provenance(chain, cpps, command=args.command_line)))
 
 
@@ -137,10 +153,7 @@ def register_pharma(cli) -> None:
     sens.add_argument("--no-reference", action="store_true", help="skip the tight-tolerance reference")
     sens.add_argument("--reference-rtol", type=float, default=1e-12)
     sens.add_argument("--reference-atol", type=float, default=1e-14)
-    sens.add_argument("--max-solver-error", type=float, default=1e-4, help="relative error against the reference "
-                      "above which the result warns (JSON, stderr)")
-    sens.add_argument("--strict", action="store_true", help="a solver error above --max-solver-error is an error "
-                      "(exit 3), not a warning")
+    add_accuracy_arguments(sens)
     sens.set_defaults(handler=run_sensitivities)
     train = cli.command("train", "train the R1 jacket and crystallizer cooling profiles for yield, specs as "
                         "smooth penalties; evaluate with hard spec checks (policies beside the JSON)", group=pharma)
@@ -161,6 +174,7 @@ def register_pharma(cli) -> None:
     add_chain_arguments(report)
     add_design_space_arguments(report)
     report.add_argument("--repeats", type=int, default=5, help="timed runs of the sensitivities")
+    add_accuracy_arguments(report)
     report.set_defaults(handler=run_report)
     bench = cli.bench("pharma", "20 sensitivities from 5 reverse passes vs 4 forward tangents: median after "
                       "compile and accuracy against a tight-tolerance reference, per tolerance")

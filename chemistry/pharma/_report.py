@@ -15,7 +15,7 @@ from ._chain import DEFAULT_MECHANISM, PharmaChain
 from ._design_space import design_space
 from ._parameters import PHYSICAL_NAMES, CPPs
 from ._ranges import CPP_NAMES, CPP_RANGES, CQA_NAMES, CQA_SPECS
-from ._study import REFERENCE, sensitivity_study
+from ._study import MAX_SOLVER_ERROR, REFERENCE, sensitivity_study
 from ._verification import cantera_check, stiffness_ratio
 
 PACKAGES = ("optimistix", "lineax", "cantera")
@@ -57,11 +57,16 @@ def summary(study: dict, cpps: dict) -> dict:
 def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 21, verify_points: int = 9, samples: int = 1000,
                  surrogate_samples: int = 4096, curvature_points: int = 6, level: float = 0.95, sigma: float = 0.1,
                  x: str = "r1_temperature", y: str = "dryer_temperature", seed: int = 0, repeats: int = 5,
-                 mechanism_path=DEFAULT_MECHANISM) -> dict:
-    """Every number of the report, as the JSON document's data (see docs/pharma.md)."""
+                 mechanism_path=DEFAULT_MECHANISM, max_solver_error: float = MAX_SOLVER_ERROR,
+                 check_warnings=None) -> dict:
+    """Every number of the report, as the JSON document's data (see docs/pharma.md); solver
+    errors against the tight reference above `max_solver_error` are warnings in it, handed to
+    `check_warnings(warnings)` (which may raise) before the design space is computed."""
     start = time.perf_counter()
     inputs = chain.inputs(cpps)
-    study = sensitivity_study(chain, cpps, repeats=repeats).to_json()
+    study = sensitivity_study(chain, cpps, repeats=repeats, max_solver_error=max_solver_error).to_json()
+    if check_warnings is not None:
+        check_warnings(study["warnings"])
     study_seconds = time.perf_counter() - start
     cantera = cantera_check(chain.with_solver(REFERENCE), cpps, inputs.physical, mechanism_path)
     space = design_space(chain, cpps, x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
