@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench accuracy clean
 
 $(STAMP): pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,10 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/snapo bench gas
+
+# Regenerates docs/accuracy.md, its plots and CSVs (about ten minutes on a 2-core machine).
+accuracy: $(STAMP)
+	$(BIN)/snapo bench accuracy --out docs
 
 clean:
 	rm -rf $(VENV) snapo-out .pytest_cache
