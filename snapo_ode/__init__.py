@@ -33,7 +33,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                       "value_and_sensitivities"),
     "._solver": ("SOLVERS", "STIFF_SOLVERS", "SolverName", "SolverSettings"),
     "._tables": ("Column", "format_table", "records_csv", "write_table"),
-    "._timing": ("Timing", "time_function", "time_once"),
+    "._timing": ("Timing", "compiled_temp_bytes", "time_function", "time_once"),
     "._training": ("TrainingDiverged", "TrainResult", "default_optimizer", "load_checkpoint", "save_checkpoint",
                    "train"),
     "._validation": ("InputError", "check_choice", "check_count", "check_finite", "check_increasing",

@@ -98,6 +98,7 @@ def plot_png(panel: Panel) -> bytes:
     """The panel as a PNG: one line (with markers) per method, in the order methods first appear,
     each point labelled with its setting; the target as a dashed line."""
     import matplotlib
+    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -112,6 +113,7 @@ def plot_png(panel: Panel) -> bytes:
         axes.axhline(panel.target, color="black", linestyle="--", linewidth=0.8, label=f"target {panel.target:g}")
     axes.set_xscale("log" if panel.log_x else "linear")
     axes.set_yscale("log" if panel.log_y else "linear")
+    axes.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # decades only: no overlapping labels
     axes.set_xlabel(panel.x_label)
     axes.set_ylabel(panel.y_label)
     axes.set_title(panel.title, fontsize=10)

@@ -45,3 +45,12 @@ def time_once(fn: Callable, *args, **kwargs) -> tuple[float, Any]:
     """Wall time of one call of `fn(*args, **kwargs)` (compile included, outputs ready) and the
     outputs: for runs too long to repeat, reported as such."""
     return _call(fn, args, kwargs)
+
+
+def compiled_temp_bytes(fn: Callable, *args) -> int:
+    """XLA's temporary memory [bytes] of `fn` (a `jax.jit` or `equinox.filter_jit` function)
+    compiled for `args`: the working memory beyond its inputs and outputs, e.g. what a reverse
+    pass keeps at its checkpoints. Compiles (or loads from the persistent cache); runs nothing."""
+    lowered = fn.lower(*args)
+    lowered = getattr(lowered, "lowered", lowered)  # equinox wraps JAX's Lowered
+    return int(lowered.compile().memory_analysis().temp_size_in_bytes)

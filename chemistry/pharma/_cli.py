@@ -139,9 +139,15 @@ def run_bench(args) -> int:
     return run_pharma_benchmark(args.out, rtols=[float(x) for x in args.rtols.split(",")], repeats=args.repeats)
 
 
+def gradient_accuracy(args):
+    from ._accuracy import gradient_study
+
+    return gradient_study(args)
+
+
 def register_pharma(cli) -> None:
-    """Add `snapo pharma sensitivities|train|design-space`, `snapo bench pharma` and
-    `snapo report pharma`."""
+    """Add `snapo pharma sensitivities|train|design-space`, `snapo bench pharma`,
+    `snapo report pharma` and the "gradients" study of `snapo bench accuracy`."""
     pharma = cli.group("pharma", "the 4-unit API chain: ICH Q8 sensitivities of the CQAs to the CPPs "
                        "and to every kinetic and physical parameter")
     sens = cli.command("sensitivities", "the 5x4 dCQA/dCPP matrix and every parameter sensitivity, checked "
@@ -182,3 +188,4 @@ def register_pharma(cli) -> None:
                        help="comma-separated rtol values (atol = rtol / 100)")
     bench.add_argument("--repeats", type=int, default=25)
     bench.set_defaults(handler=run_bench)
+    cli.accuracy("gradients", gradient_accuracy)

@@ -1,0 +1,71 @@
+"""`snapo bench accuracy`, study "gradients": what an accurate dCQA/dCPP costs on the pharma
+chain. The 20 sensitivities by each way of differentiating through the solves (reverse mode with
+a checkpoint at every step, reverse mode with few checkpoints, forward mode, central bumps) at
+each tolerance: relative error against the tight reference (`REFERENCE`, Kvaerno5 at rtol 1e-12)
+against the median wall time after compile, with compile time and XLA's temporary memory."""
+
+import numpy as np
+
+from snapo_ode import AccuracyStudy, Panel, Point, agreement, compare_with_bumps, compiled_temp_bytes, time_function
+
+from ._chain import CHAIN_SOLVER, PharmaChain
+from ._parameters import make_cpps
+from ._sensitivities import _values_and_jacobian, cpp_only, jacobian_function
+from ._study import REFERENCE
+
+TARGET = 1e-6
+"""The report's accuracy: a relative error of the 20 dCQA/dCPP at or below 1e-6."""
+BUMP_RELATIVE_STEP = 1e-4
+"""Central bumps' relative step: truncation ~1e-8 relative, round-off and solver noise over the
+step ~rtol / 1e-4."""
+METHODS = {
+    "reverse, a checkpoint a step": {"differentiation": "reverse"},
+    "reverse, 16 checkpoints": {"differentiation": "reverse", "checkpoints": 16},
+    "forward mode (4 tangents)": {"differentiation": "forward"},
+}
+
+
+def gradient_points(rtols, repeats: int) -> tuple[list[Point], float]:
+    """Every (method, rtol) point (atol = rtol / 100) and the reference's own check: the largest
+    relative difference between reverse and forward mode at the reference tolerances."""
+    base = PharmaChain()
+    inputs = base.inputs(make_cpps())
+    reference_chain = base.with_solver(REFERENCE)
+    _, reference = jacobian_function(reference_chain, False, "reverse")(inputs)
+    _, forward_reference = jacobian_function(reference_chain, False, "forward")(inputs)
+    reference = np.asarray(reference)
+    reference_check = agreement(np.asarray(forward_reference), reference).max_rel_diff
+    points = []
+    for rtol in rtols:
+        setting = f"rtol={rtol:g}"
+        for method, options in METHODS.items():
+            chain = base.with_solver(CHAIN_SOLVER.replace(rtol=rtol, atol=rtol / 100, **options))
+            mode = options["differentiation"]
+            timing, (_, matrix) = time_function(jacobian_function(chain, False, mode), inputs, repeats=repeats)
+            memory = compiled_temp_bytes(_values_and_jacobian, chain, inputs, False, mode)
+            points.append(Point(method, setting, timing.median_seconds, agreement(np.asarray(matrix), reference).max_rel_diff,
+                                {"compile_seconds": timing.compile_seconds, "temp_megabytes": memory / 1e6}))
+        chain = base.with_solver(CHAIN_SOLVER.replace(rtol=rtol, atol=rtol / 100))
+        bumps = compare_with_bumps(cpp_only(chain, inputs), inputs.cpps, mode="reverse", step_floor=0.0,
+                                   relative_step=BUMP_RELATIVE_STEP, repeats=1, bump_repeats=repeats)
+        points.append(Point("central bumps (8 solves)", setting, bumps.bump_seconds,
+                            agreement(np.asarray(bumps.bumped), reference).max_rel_diff,
+                            {"compile_seconds": bumps.bump_compile_seconds}))
+    return points, reference_check
+
+
+def gradient_study(args) -> list[AccuracyStudy]:
+    """The "gradients" study (`snapo bench accuracy --only gradients`)."""
+    rtols = (1e-6, 1e-9) if args.quick else (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+    points, reference_check = gradient_points(rtols, repeats=3 if args.quick else 10)
+    panel = Panel(
+        "gradients_pharma_chain", "Pharma chain: 20 dCQA/dCPP, error against wall time",
+        "wall time after compile [s]", "max relative error of the 20 dCQA/dCPP", points, target=TARGET,
+        notes=(f"Reference: reverse mode through Kvaerno5 at rtol {REFERENCE.rtol:g}; forward mode at the same "
+               f"tolerances agrees with it to {reference_check:.1e}. Each method's points run from the loosest "
+               "tolerance (left) to the tightest. `temp_megabytes` in the CSV is XLA's temporary memory of the "
+               "compiled program: what the checkpoints cost."))
+    text = ("How the derivative is taken through the chain's solves (R1, R2: Rodas4; crystallizer and dryer: "
+            "Tsit5) changes its cost and its accuracy at a given tolerance. Reverse mode takes 5 passes (one per "
+            "CQA) and forward mode 4 tangents (one per CPP); central bumps 8 solves.")
+    return [AccuracyStudy("gradients", "Gradients: error against time and memory", [panel], text)]
