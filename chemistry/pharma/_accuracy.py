@@ -8,6 +8,7 @@ import numpy as np
 
 from snapo_ode import AccuracyStudy, Panel, Point, agreement, compare_with_bumps, compiled_temp_bytes, time_function
 
+from .._gradient_accuracy import ignition_gradient_panel
 from ._chain import CHAIN_SOLVER, PharmaChain
 from ._parameters import make_cpps
 from ._sensitivities import _values_and_jacobian, cpp_only, jacobian_function
@@ -68,4 +69,6 @@ def gradient_study(args) -> list[AccuracyStudy]:
     text = ("How the derivative is taken through the chain's solves (R1, R2: Rodas4; crystallizer and dryer: "
             "Tsit5) changes its cost and its accuracy at a given tolerance. Reverse mode takes 5 passes (one per "
             "CQA) and forward mode 4 tangents (one per CPP); central bumps 8 solves.")
-    return [AccuracyStudy("gradients", "Gradients: error against time and memory", [panel], text)]
+    ignition = ignition_gradient_panel((1e-6, 1e-9) if args.quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10),
+                                       repeats=3 if args.quick else 5)
+    return [AccuracyStudy("gradients", "Gradients: error against time and memory", [panel, ignition], text)]
