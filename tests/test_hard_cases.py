@@ -148,3 +148,17 @@ def test_the_same_seed_gives_bit_identical_results(verb, tmp_path):
         runs.append(_without_timings(json.loads(path.read_text())))
     assert runs[0] == runs[1]  # exact equality of every float, not a tolerance
     assert runs[0] != runs[2]
+
+
+@pytest.mark.parametrize("solver", [diffrax.Tsit5(), snapo_ode.Rodas4()], ids=["tsit5", "rodas4"])
+def test_a_step_size_collapse_raises_with_advice_never_a_nan(solver):
+    # y' = y^2 from y(0) = 1 blows up at t = 1: the step size shrinks to dtmin before t1 = 2.
+    def blow_up(y0):
+        return snapo_ode.diffeqsolve_checked(
+            diffrax.ODETerm(lambda t, y, args: y**2), solver, 0.0, 2.0, None, y0, None,
+            stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-10, dtmin=1e-12), max_steps=100_000).ys[-1]
+
+    with pytest.raises(snapo_ode.SolverFailed, match="step size collapsed"):
+        snapo_ode.call_checked(jax.jit(blow_up), jnp.array(1.0), what="the blow-up")
+    with pytest.raises(eqx.EquinoxRuntimeError):
+        eqx.filter_jit(blow_up)(jnp.array(1.0)).block_until_ready()
