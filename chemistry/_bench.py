@@ -34,8 +34,10 @@ MAX_STEPS = 4000
 CANTERA_SENSITIVITY_REPEATS = {"h2o2": 3, "gri30": 1}  # gri30 with 325 sensitivities: seconds a run
 
 
-def _cantera_seconds(path, case, end_time: float, sensitivities: bool, repeats: int) -> tuple[float, float]:
-    """Median wall time [s] of Cantera's run to `end_time` [s], and T there [K]."""
+def cantera_seconds(path, case, end_time: float, sensitivities: bool, repeats: int, *, rtol: float = RTOL,
+                    atol: float = ATOL) -> tuple[float, float]:
+    """Median wall time [s] of Cantera's run to `end_time` [s] at `rtol`, `atol` (on [m, V, T,
+    Y_k]), and T there [K]."""
     import cantera
 
     runs = []
@@ -45,7 +47,7 @@ def _cantera_seconds(path, case, end_time: float, sensitivities: bool, repeats: 
         start = time.perf_counter()
         reactor = cantera.IdealGasReactor(solution, clone=False)
         net = cantera.ReactorNet([reactor])
-        net.rtol, net.atol, net.max_steps = RTOL, ATOL, 200_000
+        net.rtol, net.atol, net.max_steps = rtol, atol, 200_000
         if sensitivities:
             for i in range(solution.n_reactions):
                 reactor.add_sensitivity_reaction(i)
@@ -76,8 +78,8 @@ def benchmark_mechanism(name: str, repeats: int) -> dict:
 
     forward, temperature = time_function(checked(eqx.filter_jit(objective)), zero, repeats=repeats)
     gradient, _ = time_function(checked(eqx.filter_jit(jax.value_and_grad(objective))), zero, repeats=repeats)
-    cantera_forward, cantera_temperature = _cantera_seconds(path, case, end_time, False, repeats)
-    cantera_sensitivity, _ = _cantera_seconds(path, case, end_time, True,
+    cantera_forward, cantera_temperature = cantera_seconds(path, case, end_time, False, repeats)
+    cantera_sensitivity, _ = cantera_seconds(path, case, end_time, True,
                                               CANTERA_SENSITIVITY_REPEATS[name])
     return {
         "mechanism": name, "parameters": mechanism.n_reactions, "end_time_s": end_time,

@@ -29,6 +29,12 @@ def run_bench(args) -> int:
     return 0
 
 
+def stiff_accuracy(args):
+    from ._solver_accuracy import stiff_study
+
+    return stiff_study(args)
+
+
 def register_kinetics(cli: CommandLine) -> None:
     """Add `snapo kinetics check` and `snapo bench kinetics`."""
     kinetics = cli.group("kinetics", "Cantera-YAML kinetics: check a mechanism against Cantera")
@@ -55,3 +61,4 @@ def register_kinetics(cli: CommandLine) -> None:
                             "325 sensitivities)")
     bench.add_argument("--repeats", type=int, default=5)
     bench.set_defaults(handler=run_bench)
+    cli.accuracy("stiff", stiff_accuracy)

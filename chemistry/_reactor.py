@@ -5,6 +5,7 @@ The state is scaled, [T / T0, N_k / N_total0] (N_k: amounts [kmol]), so one atol
 for the temperature and for every species.
 """
 
+from collections.abc import Callable
 from typing import Literal, NamedTuple
 
 import diffrax
@@ -154,22 +155,24 @@ class Trajectory(NamedTuple):
     solution: diffrax.Solution
 
 
-def simulate(reactor: Reactor, temperature, concentrations, times, *, volume=1.0,
-             parameters: RateParameters | None = None, settings: SolverSettings = REACTOR_SOLVER,
-             dense: bool = False) -> Trajectory:
-    """Integrate `reactor` from `temperature` [K] and `concentrations` [kmol/m^3] (shape
-    `(n_species,)`) in `volume` [m^3], saving at `times` [s] (shape `(n_t,)`, from t = 0).
+class ScaledProblem(NamedTuple):
+    """The reactor's ODE on the scaled state [T / T0, N_k / N_total0] (without the energy
+    effect, [N_k / N_total0]): `vector_field(t, state, args)`, its closed-form `jacobian(t, state,
+    args)` (None without energy: differentiate the field), the initial `state0`, and the scales
+    `temperature` T0 [K] and `amount_scale` N_total0 [kmol]."""
 
-    **Arguments:** `parameters` (default: the mechanism's) are what gradients flow into;
-    `settings` picks the solver and tolerances; `dense` keeps the dense output (for
-    `ignition_delay`).
+    vector_field: Callable
+    jacobian: Callable | None
+    state0: jax.Array
+    temperature: jax.Array
+    amount_scale: jax.Array
 
-    **Raises:** `InputError` for a wrong shape, and, where the inputs are concrete (not traced),
-    for a non-positive temperature, negative concentrations or times that do not increase from
-    t >= 0; inside jit, an error with advice if the solve fails (max_steps, step collapse).
-    """
+
+def scaled_problem(reactor: Reactor, temperature, concentrations, volume=1.0,
+                   parameters: RateParameters | None = None) -> ScaledProblem:
+    """The scaled ODE that `simulate` integrates (any solver can integrate it: SciPy's in the
+    accuracy benchmark), from `temperature` [K] and `concentrations` [kmol/m^3] in `volume` [m^3]."""
     mechanism = reactor.mechanism
-    _check_initial_state(mechanism, temperature, concentrations, times, volume)
     parameters = mechanism.parameters if parameters is None else parameters
     temperature = jnp.asarray(temperature, float)
     amounts0 = jnp.asarray(concentrations, float) * volume
@@ -195,9 +198,30 @@ def simulate(reactor: Reactor, temperature, concentrations, times, *, volume=1.0
 
     n_scaled = amounts0 / amount_scale
     state0 = jnp.concatenate([jnp.ones(1), n_scaled]) if energy else n_scaled
+    return ScaledProblem(vector_field, energy_jacobian if energy else None, state0, temperature, amount_scale)
+
+
+def simulate(reactor: Reactor, temperature, concentrations, times, *, volume=1.0,
+             parameters: RateParameters | None = None, settings: SolverSettings = REACTOR_SOLVER,
+             dense: bool = False) -> Trajectory:
+    """Integrate `reactor` from `temperature` [K] and `concentrations` [kmol/m^3] (shape
+    `(n_species,)`) in `volume` [m^3], saving at `times` [s] (shape `(n_t,)`, from t = 0).
+
+    **Arguments:** `parameters` (default: the mechanism's) are what gradients flow into;
+    `settings` picks the solver and tolerances; `dense` keeps the dense output (for
+    `ignition_delay`).
+
+    **Raises:** `InputError` for a wrong shape, and, where the inputs are concrete (not traced),
+    for a non-positive temperature, negative concentrations or times that do not increase from
+    t >= 0; inside jit, an error with advice if the solve fails (max_steps, step collapse).
+    """
+    _check_initial_state(reactor.mechanism, temperature, concentrations, times, volume)
+    problem = scaled_problem(reactor, temperature, concentrations, volume, parameters)
+    energy = reactor.scene.has("energy")
+    temperature, amount_scale = problem.temperature, problem.amount_scale
     times = jnp.asarray(times, float)
-    solution = settings.solve(vector_field, 0.0, times[-1], state0, saveat=diffrax.SaveAt(ts=times, dense=dense),
-                              jacobian=energy_jacobian if energy else None)
+    solution = settings.solve(problem.vector_field, 0.0, times[-1], problem.state0,
+                              saveat=diffrax.SaveAt(ts=times, dense=dense), jacobian=problem.jacobian)
     ys = solution.ys
     temperatures = ys[:, 0] * temperature if energy else jnp.full(times.shape, temperature)
     amounts = (ys[:, 1:] if energy else ys) * amount_scale

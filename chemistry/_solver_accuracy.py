@@ -1,0 +1,173 @@
+"""`snapo bench accuracy`, study "stiff": error against wall time of stiff solves, one line per
+solver, its points the tolerances. Ours (`snapo_ode.Rodas4`, Diffrax's Kvaerno5 and Tsit5 through
+`snapo_ode.SolverSettings`) next to Cantera's CVODES (`ReactorNet`) and SciPy's BDF, Radau and
+LSODA on the same right-hand side (`scaled_problem`, its closed-form Jacobian; the JAX functions
+compiled once and called from NumPy):
+
+- Robertson's kinetics to t = 1e5 s (Hairer & Wanner's stiff test; stiffness ratio ~5e8 there);
+- h2o2 and gri30 constant-volume ignition (the built-in cases) to their sensitivity times, late
+  in the induction: the error of T there;
+- the pharma chain (in `chemistry.pharma._accuracy`: its own solvers only).
+
+Each reference is the tightest solve of one method, checked against a second method at the same
+tolerance (stated in the panel's notes). Times are medians after compile; a solver that fails
+(max steps, a step-size collapse) is a listed failure."""
+
+import pathlib
+import statistics
+import time
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from snapo_ode import Panel, Point, SolverFailed, agreement, call_checked, time_function
+
+from ._bench import cantera_seconds
+from ._ignition import IGNITION_CASES, initial_concentrations
+from ._mechanism import Mechanism
+from ._reactor import REACTOR_SOLVER, Reactor, scaled_problem, simulate
+
+TARGET = 1e-6
+SCIPY_METHODS = ("BDF", "Radau", "LSODA")
+OUR_SOLVERS = {"Rodas4 (ours)": "rodas4", "Kvaerno5 (Diffrax)": "kvaerno5", "Tsit5 (Diffrax, explicit)": "tsit5"}
+MAX_STEPS = 20_000
+
+
+def _scipy_point(method: str, setting: str, field, jacobian, y0, t1: float, rtol: float, atol: float,
+                 error_of, repeats: int) -> Point:
+    """SciPy's `solve_ivp(method)` on `field` (NumPy in and out), timed (median of `repeats`)."""
+    from scipy.integrate import solve_ivp
+
+    runs, solution = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        solution = solve_ivp(field, (0.0, t1), y0, method=method, rtol=rtol, atol=atol,
+                             **({} if method == "LSODA" and jacobian is None else {"jac": jacobian}))
+        runs.append(time.perf_counter() - start)
+    if not solution.success:
+        return Point(f"SciPy {method}", setting, float("nan"), float("nan"), failure=solution.message)
+    return Point(f"SciPy {method}", setting, statistics.median(runs), error_of(solution.y[:, -1]),
+                 {"steps": int(solution.t.size - 1)})
+
+
+def _our_point(method: str, setting: str, fn, argument, error_of, repeats: int) -> Point:
+    try:
+        timing, value = time_function(lambda x: call_checked(fn, x, what=method), argument, repeats=repeats)
+    except SolverFailed as failure:
+        return Point(method, setting, float("nan"), float("nan"), failure="SolverFailed: max steps or a step-size collapse")
+    return Point(method, setting, timing.median_seconds, error_of(value), {"compile_seconds": timing.compile_seconds})
+
+
+def _numpy(fn):
+    """A jitted JAX function of (t, y, args) as a NumPy function of (t, y), for SciPy."""
+    compiled = jax.jit(lambda t, y: fn(t, y, None))
+    return lambda t, y: np.asarray(compiled(t, jnp.asarray(y)))
+
+
+def robertson_panel(rtols, repeats: int) -> Panel:
+    """Robertson's kinetics, y = (a, b, c), rate constants (0.04, 1e4, 3e7), to t = 1e5 s."""
+    rates = jnp.array([0.04, 1e4, 3e7])
+    t1, y0 = 1e5, np.array([1.0, 0.0, 0.0])
+
+    def field(t, y, args=None):
+        a, b, c = y[0], y[1], y[2]
+        return jnp.stack([-rates[0] * a + rates[1] * b * c, rates[0] * a - rates[1] * b * c - rates[2] * b**2,
+                          rates[2] * b**2])
+
+    def solve(settings):
+        return eqx.filter_jit(lambda y: settings.solve(field, 0.0, t1, y).ys[-1])
+
+    from scipy.integrate import solve_ivp
+
+    numpy_field, numpy_jacobian = _numpy(field), _numpy(jax.jacfwd(field, argnums=1))
+    reference = solve_ivp(numpy_field, (0.0, t1), y0, method="Radau", jac=numpy_jacobian, rtol=1e-13,
+                          atol=1e-19).y[:, -1]
+
+    def error_of(y):
+        return agreement(np.asarray(y), reference).max_rel_diff
+
+    check = error_of(call_checked(solve(REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-16, max_steps=MAX_STEPS)),
+                                  jnp.asarray(y0)))
+    points = []
+    for rtol in rtols:
+        setting, atol = f"rtol={rtol:g}", rtol * 1e-6
+        for method, solver in OUR_SOLVERS.items():
+            points.append(_our_point(method, setting, solve(REACTOR_SOLVER.replace(
+                solver=solver, rtol=rtol, atol=atol, max_steps=MAX_STEPS)), jnp.asarray(y0), error_of, repeats))
+        points += [_scipy_point(method, setting, numpy_field, numpy_jacobian, y0, t1, rtol, atol, error_of,
+                                min(repeats, 3)) for method in SCIPY_METHODS]
+    return Panel("stiff_robertson", "Robertson's kinetics to t = 1e5 s (stiffness ratio ~5e8)",
+                 "wall time after compile [s]", "max relative error of (a, b, c)", points, target=TARGET,
+                 notes=(f"Reference: SciPy Radau at rtol 1e-13 / atol 1e-19; Rodas4 at rtol 1e-10 / atol 1e-16 agrees "
+                        f"with it to {check:.1e} (Rodas4 fails here at rtol 1e-11 and tighter: its step size "
+                        "collapses on round-off). atol = rtol x 1e-6 for every solver; components below 1e-8 of the "
+                        "largest are compared at that scale."))
+
+
+def ignition_panel(name: str, rtols, repeats: int) -> Panel:
+    """Constant-volume adiabatic ignition of the built-in case `name` ("h2o2", "gri30"): the
+    relative error of T at the case's sensitivity time."""
+    import cantera
+
+    path = pathlib.Path(cantera.__file__).parent / "data" / f"{name}.yaml"
+    case = IGNITION_CASES[name]
+    mechanism = Mechanism.from_yaml(path)
+    reactor = Reactor(mechanism, "constant-volume", ("energy",))
+    concentrations = jnp.asarray(initial_concentrations(path, case))
+    t1 = case.sensitivity_time
+    times = jnp.array([0.0, t1])
+
+    def solve(settings):
+        return eqx.filter_jit(lambda c: simulate(reactor, case.temperature, c, times, settings=settings).temperature[-1])
+
+    reference = float(call_checked(solve(REACTOR_SOLVER.replace(rtol=1e-13, atol=1e-16, max_steps=MAX_STEPS)),
+                                   concentrations))
+    _, cantera_reference = cantera_seconds(path, case, t1, False, 1, rtol=1e-13, atol=1e-20)
+
+    def error_of(temperature):
+        return abs(float(temperature) / reference - 1.0)
+
+    problem = scaled_problem(reactor, case.temperature, concentrations)
+    numpy_field, numpy_jacobian = _numpy(problem.vector_field), _numpy(problem.jacobian)
+    y0 = np.asarray(problem.state0)
+    points = []
+    for rtol in rtols:
+        setting, atol = f"rtol={rtol:g}", rtol * 1e-3
+        for method, solver in OUR_SOLVERS.items():
+            points.append(_our_point(method, setting, solve(REACTOR_SOLVER.replace(
+                solver=solver, rtol=rtol, atol=atol, max_steps=MAX_STEPS)), concentrations, error_of, repeats))
+        seconds, temperature = cantera_seconds(path, case, t1, False, min(repeats, 3), rtol=rtol, atol=rtol * 1e-7)
+        points.append(Point("Cantera CVODES", setting, seconds, error_of(temperature)))
+        points += [_scipy_point(method, setting, numpy_field, numpy_jacobian, y0, t1, rtol, atol,
+                                lambda y: error_of(y[0] * case.temperature), min(repeats, 3))
+                   for method in SCIPY_METHODS]
+    return Panel(f"stiff_{name}_ignition", f"{name} ignition ({case.temperature:g} K, {case.composition}): T at "
+                 f"{t1 * 1e3:g} ms", "wall time after compile [s]", "relative error of T", points, target=TARGET,
+                 notes=(f"Reference: Rodas4 at rtol 1e-13 / atol 1e-16; Cantera's CVODES at rtol 1e-13 / atol 1e-20 "
+                        f"agrees with it to {abs(cantera_reference / reference - 1):.1e}. Ours and SciPy solve the scaled "
+                        "state [T / T0, N_k / N0] with atol = rtol x 1e-3; Cantera its own state [m, V, T, Y_k] with "
+                        "atol = rtol x 1e-7. Cantera's time is a whole run (nothing to compile)."))
+
+
+def stiff_study(args):
+    """The "stiff" study (`snapo bench accuracy --only stiff`); the pharma chain's panel comes
+    from `chemistry.pharma`."""
+    from snapo_ode import AccuracyStudy
+
+    from .pharma._accuracy import chain_solver_panel
+
+    quick = args.quick
+    rtols = (1e-4, 1e-6, 1e-8) if quick else (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+    repeats = 3 if quick else 5
+    panels = [robertson_panel(rtols, repeats), ignition_panel("h2o2", rtols, repeats),
+              chain_solver_panel((1e-6, 1e-8) if quick else rtols[2:], repeats)]
+    if not quick:
+        panels.insert(2, ignition_panel("gri30", (1e-6, 1e-8, 1e-10), 3))
+    text = ("What a given accuracy costs with each stiff solver. Our default, Rodas4 (a Rosenbrock method: one "
+            "Jacobian and one LU a step, no Newton iteration), against Diffrax's ESDIRK Kvaerno5 and explicit Tsit5, "
+            "Cantera's CVODES (variable-order BDF) and SciPy's BDF, Radau and LSODA on the same right-hand side. "
+            "The peers' times are their own (Cantera in C++, SciPy in Python calling our compiled right-hand side "
+            "and Jacobian).")
+    return [AccuracyStudy("stiff", "Stiff solves: error against wall time", panels, text)]
