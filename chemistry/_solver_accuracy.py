@@ -55,7 +55,7 @@ def _scipy_point(method: str, setting: str, field, jacobian, y0, t1: float, rtol
 def _our_point(method: str, setting: str, fn, argument, error_of, repeats: int) -> Point:
     try:
         timing, value = time_function(lambda x: call_checked(fn, x, what=method), argument, repeats=repeats)
-    except SolverFailed as failure:
+    except SolverFailed:
         return Point(method, setting, float("nan"), float("nan"), failure="SolverFailed: max steps or a step-size collapse")
     return Point(method, setting, timing.median_seconds, error_of(value), {"compile_seconds": timing.compile_seconds})
 

@@ -57,7 +57,7 @@ def chain_solver_panel(rtols, repeats: int) -> Panel:
             fn = simulation(base.with_solver(CHAIN_SOLVER.replace(rtol=rtol, atol=rtol / 100, **solvers)))
             try:
                 timing, cqas = time_function(lambda x, fn=fn: call_checked(fn, x, what=method), inputs, repeats=repeats)
-            except SolverFailed as failure:
+            except SolverFailed:
                 points.append(Point(method, f"rtol={rtol:g}", float("nan"), float("nan"),
                                     failure="SolverFailed: max steps or a step-size collapse"))
                 continue
