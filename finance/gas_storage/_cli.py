@@ -135,6 +135,18 @@ def run_bench_lsmc(args) -> int:
     return 0
 
 
+def smoothing_accuracy(args):
+    from ._accuracy import smoothing_study
+
+    return smoothing_study(args)
+
+
+def monte_carlo_accuracy(args):
+    from ._accuracy import monte_carlo_study
+
+    return monte_carlo_study(args)
+
+
 def register_gas(cli) -> None:
     """Add `snapo gas`, `snapo demo`, `snapo bench gas` and `snapo bench gas-lsmc`."""
     gas = cli.command("gas", "train a storage policy, value it hard and smooth against the intrinsic LP, "
@@ -161,3 +173,5 @@ def register_gas(cli) -> None:
     versus.add_argument("--lsmc-nodes", type=int, default=101)
     versus.add_argument("--lsmc-degree", type=int, default=3)
     versus.set_defaults(handler=run_bench_lsmc)
+    cli.accuracy("smoothing", smoothing_accuracy)
+    cli.accuracy("monte-carlo", monte_carlo_accuracy)
