@@ -1,0 +1,71 @@
+"""`snapo bench accuracy --quick` regenerates the page, plots and CSVs, and what they show holds:
+errors fall as tolerances tighten, each reference agrees with its second method, the smooth-hard
+gap falls like 1/k, standard errors like 1/sqrt(paths). One quick run for the whole file."""
+
+import json
+import math
+
+import pytest
+
+from snapo_ode.cli import main
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    out = tmp_path_factory.mktemp("accuracy")
+    assert main(["bench", "accuracy", "--quick", "--out", str(out), "--no-progress"]) == 0
+    payload = json.loads((out / "bench_accuracy.json").read_text())
+    panels = {panel["name"]: panel for study in payload["studies"] for panel in study["panels"]}
+    return out, panels
+
+
+def _line(panel, method):
+    return [row for row in panel["rows"] if row["method"] == method]
+
+
+def test_the_page_plots_and_csvs_are_written(bench):
+    out, panels = bench
+    page = (out / "accuracy.md").read_text()
+    for name in panels:
+        assert (out / "accuracy" / f"{name}.png").stat().st_size > 10_000
+        assert (out / "accuracy" / f"{name}.csv").read_text().startswith("method,setting,x,y")
+        assert f"accuracy/{name}.png" in page
+    assert {"stiff_robertson", "stiff_h2o2_ignition", "stiff_pharma_chain", "gradients_pharma_chain",
+            "gradients_h2o2_ignition", "smoothing_gas_gap", "smoothing_gas_gradient", "monte_carlo_gas_se"} <= set(panels)
+
+
+@pytest.mark.parametrize(("panel", "method"), [
+    ("stiff_robertson", "Rodas4 (ours)"), ("stiff_h2o2_ignition", "Cantera CVODES"),
+    ("stiff_pharma_chain", "Rodas4 + Tsit5 (default)"), ("gradients_pharma_chain", "reverse, a checkpoint a step"),
+])
+def test_errors_fall_as_the_tolerance_tightens(bench, panel, method):
+    line = _line(bench[1][panel], method)
+    assert len(line) >= 2 and all(row["y"] is not None for row in line)
+    assert line[-1]["y"] < line[0]["y"] / 10
+
+
+def test_every_stiff_panel_has_ours_and_a_peer_and_names_failures(bench):
+    panels = bench[1]
+    for name in ("stiff_robertson", "stiff_h2o2_ignition"):
+        methods = {row["method"] for row in panels[name]["rows"] if row["y"] is not None}
+        assert "Rodas4 (ours)" in methods and {"SciPy Radau", "SciPy BDF"} <= methods
+    # Tsit5 cannot cross Robertson's stiff stretch: a listed failure, never a plotted NaN.
+    tsit5 = _line(panels["stiff_robertson"], "Tsit5 (Diffrax, explicit)")
+    assert tsit5 and all(row["failure"] and row["y"] is None for row in tsit5)
+    assert "Tsit5 (Diffrax, explicit)" in panels["stiff_robertson"]["missed"]
+
+
+def test_the_smooth_gap_falls_like_one_over_sharpness_and_the_adjoint_matches_bumps(bench):
+    panels = bench[1]
+    gap = panels["smoothing_gas_gap"]["rows"]
+    assert all(a["y"] > b["y"] for a, b in zip(gap, gap[1:]))
+    slope = math.log(gap[-1]["y"] / gap[0]["y"]) / math.log(gap[-1]["x"] / gap[0]["x"])
+    assert -1.3 < slope < -0.7
+    smooth = _line(panels["smoothing_gas_gradient"], "adjoint vs bumps of the smooth value")
+    assert max(row["y"] for row in smooth) < 1e-6
+
+
+def test_standard_errors_fall_like_one_over_root_paths(bench):
+    rows = _line(bench[1]["monte_carlo_gas_se"], "hard value")
+    ratio = rows[0]["y"] / rows[-1]["y"]
+    assert 0.5 * math.sqrt(rows[-1]["x"] / rows[0]["x"]) < ratio < 2 * math.sqrt(rows[-1]["x"] / rows[0]["x"])
