@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import Panel, Point, SolverFailed, agreement, call_checked, time_function
+from snapo_ode import Panel, Point, agreement, call_checked, timed_point
 
 from ._bench import cantera_seconds
 from ._ignition import IGNITION_CASES, initial_concentrations
@@ -50,14 +50,6 @@ def _scipy_point(method: str, setting: str, field, jacobian, y0, t1: float, rtol
         return Point(f"SciPy {method}", setting, float("nan"), float("nan"), failure=solution.message)
     return Point(f"SciPy {method}", setting, statistics.median(runs), error_of(solution.y[:, -1]),
                  {"steps": int(solution.t.size - 1)})
-
-
-def _our_point(method: str, setting: str, fn, argument, error_of, repeats: int) -> Point:
-    try:
-        timing, value = time_function(lambda x: call_checked(fn, x, what=method), argument, repeats=repeats)
-    except SolverFailed:
-        return Point(method, setting, float("nan"), float("nan"), failure="SolverFailed: max steps or a step-size collapse")
-    return Point(method, setting, timing.median_seconds, error_of(value), {"compile_seconds": timing.compile_seconds})
 
 
 def _numpy(fn):
@@ -94,7 +86,7 @@ def robertson_panel(rtols, repeats: int) -> Panel:
     for rtol in rtols:
         setting, atol = f"rtol={rtol:g}", rtol * 1e-6
         for method, solver in OUR_SOLVERS.items():
-            points.append(_our_point(method, setting, solve(REACTOR_SOLVER.replace(
+            points.append(timed_point(method, setting, solve(REACTOR_SOLVER.replace(
                 solver=solver, rtol=rtol, atol=atol, max_steps=MAX_STEPS)), jnp.asarray(y0), error_of, repeats))
         points += [_scipy_point(method, setting, numpy_field, numpy_jacobian, y0, t1, rtol, atol, error_of,
                                 min(repeats, 3)) for method in SCIPY_METHODS]
@@ -136,7 +128,7 @@ def ignition_panel(name: str, rtols, repeats: int) -> Panel:
     for rtol in rtols:
         setting, atol = f"rtol={rtol:g}", rtol * 1e-3
         for method, solver in OUR_SOLVERS.items():
-            points.append(_our_point(method, setting, solve(REACTOR_SOLVER.replace(
+            points.append(timed_point(method, setting, solve(REACTOR_SOLVER.replace(
                 solver=solver, rtol=rtol, atol=atol, max_steps=MAX_STEPS)), concentrations, error_of, repeats))
         seconds, temperature = cantera_seconds(path, case, t1, False, min(repeats, 3), rtol=rtol, atol=rtol * 1e-7)
         points.append(Point("Cantera CVODES", setting, seconds, error_of(temperature)))

@@ -14,12 +14,14 @@ and `OUT/accuracy/PANEL.csv` for each panel, and `OUT/bench_accuracy.json` (ever
 import io
 import math
 import pathlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import NamedTuple
 
 from ._io import json_bytes, publish
+from ._ode import SolverFailed, call_checked
 from ._results import jsonable
 from ._tables import Column, format_table, records_csv
+from ._timing import time_function
 
 
 class Point(NamedTuple):
@@ -61,6 +63,17 @@ class AccuracyStudy(NamedTuple):
     title: str
     panels: Sequence[Panel]
     text: str = ""
+
+
+def timed_point(method: str, setting: str, fn: Callable, argument, error_of: Callable, repeats: int) -> Point:
+    """A point measured: `fn(argument)` (a jitted function whose failed solve leaves non-finite
+    marks) through `call_checked`, timed (`time_function`: x is the median after compile, the
+    compile time in `extra`), y = `error_of(output)`; a `SolverFailed` is a failure point."""
+    try:
+        timing, output = time_function(lambda x: call_checked(fn, x, what=method), argument, repeats=repeats)
+    except SolverFailed:
+        return Point(method, setting, math.nan, math.nan, failure="SolverFailed: max steps or a step-size collapse")
+    return Point(method, setting, timing.median_seconds, error_of(output), {"compile_seconds": timing.compile_seconds})
 
 
 def cheapest(panel: Panel) -> list[Point]:

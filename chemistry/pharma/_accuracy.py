@@ -9,8 +9,8 @@ import equinox as eqx
 import numpy as np
 
 from snapo_ode import (
-    AccuracyStudy, Panel, Point, SolverFailed, agreement, call_checked, compare_with_bumps, compiled_temp_bytes,
-    time_function)
+    AccuracyStudy, Panel, Point, agreement, call_checked, compare_with_bumps, compiled_temp_bytes, time_function,
+    timed_point)
 
 from .._gradient_accuracy import ignition_gradient_panel
 from ._chain import CHAIN_SOLVER, PharmaChain
@@ -55,15 +55,8 @@ def chain_solver_panel(rtols, repeats: int) -> Panel:
     for rtol in rtols:
         for method, solvers in CHAIN_SOLVERS.items():
             fn = simulation(base.with_solver(CHAIN_SOLVER.replace(rtol=rtol, atol=rtol / 100, **solvers)))
-            try:
-                timing, cqas = time_function(lambda x, fn=fn: call_checked(fn, x, what=method), inputs, repeats=repeats)
-            except SolverFailed:
-                points.append(Point(method, f"rtol={rtol:g}", float("nan"), float("nan"),
-                                    failure="SolverFailed: max steps or a step-size collapse"))
-                continue
-            points.append(Point(method, f"rtol={rtol:g}", timing.median_seconds,
-                                agreement(np.asarray(cqas), reference).max_rel_diff,
-                                {"compile_seconds": timing.compile_seconds}))
+            points.append(timed_point(method, f"rtol={rtol:g}", fn, inputs,
+                                      lambda cqas: agreement(np.asarray(cqas), reference).max_rel_diff, repeats))
     return Panel("stiff_pharma_chain", "Pharma chain (R1, R2, crystallizer, dryer): the five CQAs",
                  "wall time after compile [s]", "max relative error of the CQAs", points, target=TARGET,
                  notes=(f"Reference: Kvaerno5 on every unit at rtol {REFERENCE.rtol:g}; Rodas4 on every unit at the same "
