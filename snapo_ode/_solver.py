@@ -10,13 +10,16 @@ from typing import Literal, get_args
 
 import diffrax
 import equinox as eqx
+import jax.numpy as jnp
 import optimistix as optx
 
+from ._host_solve import HOST_SOLVERS, host_solve
 from ._ode import diffeqsolve_checked
 from ._rosenbrock import Rodas4
-from ._validation import check_choice, check_count, check_range
+from ._validation import InputError, check_choice, check_count, check_range
 
-SolverName = Literal["rodas4", "kvaerno5", "kvaerno4", "kvaerno3", "tsit5", "dopri5"]
+SolverName = Literal["rodas4", "kvaerno5", "kvaerno4", "kvaerno3", "tsit5", "dopri5",
+                     "cvode", "scipy-bdf", "scipy-radau", "scipy-lsoda"]
 RootFinderName = Literal["newton", "chord"]
 Differentiation = Literal["reverse", "forward", "backsolve"]
 
@@ -40,7 +43,10 @@ class SolverSettings(eqx.Module):
       steps, where Kvaerno5 with a chord root finder took 3,642 + 4,481 and, after a change at
       round-off level in the rates, hit max_steps), and because its reverse pass has no root
       finder's implicit derivative, which failed on rejected steps of a gri30 ignition. An
-      explicit name ("tsit5", "dopri5") is allowed and is then used for every part.
+      explicit name ("tsit5", "dopri5") is allowed and is then used for every part. The peers
+      "cvode" (SUNDIALS, BDF), "scipy-bdf", "scipy-radau" and "scipy-lsoda" integrate the same
+      vector field on the host (`snapo_ode._host_solve`): values only (no derivative, no dense
+      output), for comparisons of accuracy and time.
     - `nonstiff_solver`: for the parts a model declares non-stiff (`solve(..., stiff=False)`),
       e.g. the pharma crystallizer and dryer, whose Jacobians' eigenvalues stay below ~20 per
       unit duration: "tsit5" (default: explicit, no Jacobian to form or differentiate), "dopri5",
@@ -107,6 +113,8 @@ class SolverSettings(eqx.Module):
         """The Diffrax solver for a stiff (`solver`) or non-stiff (`nonstiff_solver`) part.
         `jacobian(t, y, args)`, a model's exact df/dy on the flattened state, serves Rodas4."""
         name = self.solver if stiff else self.nonstiff_solver
+        if name in HOST_SOLVERS:
+            raise InputError(f"solver = {name!r} runs on the host and has no Diffrax method: call solve().")
         if name == "rodas4":
             return Rodas4(jacobian=jacobian)
         if name in _EXPLICIT:
@@ -130,10 +138,25 @@ class SolverSettings(eqx.Module):
         """`dy/dt = vector_field(t, y, args)` from `y0` at `t0` to `t1`, through
         `snapo_ode.diffeqsolve_checked` (a failed solve raises with advice; a backsolve adjoint
         is refused on a stiff solve before any compile). `saveat` defaults to the end state."""
+        name = self.solver if stiff else self.nonstiff_solver
+        if name in HOST_SOLVERS:
+            return self._host_solution(name, vector_field, t0, t1, y0, args, saveat or diffrax.SaveAt(t1=True))
         return diffeqsolve_checked(
             diffrax.ODETerm(vector_field), self.method(stiff=stiff, jacobian=jacobian), t0, t1, dt0, y0, args,
             stiff=stiff, saveat=saveat or diffrax.SaveAt(t1=True),
             stepsize_controller=self.controller(), max_steps=self.max_steps, adjoint=self.adjoint())
+
+    def _host_solution(self, name, vector_field, t0, t1, y0, args, saveat) -> diffrax.Solution:
+        """A `diffrax.Solution` (ts, ys; no interpolation) from the host solver `name`."""
+        subs = saveat.subs
+        if saveat.dense or subs.steps or subs.t0 or (subs.ts is None) == (not subs.t1):
+            raise InputError(f"solver = {name!r} saves at t1 or at given ts only (no dense output, steps or t0).")
+        ts = subs.ts if subs.ts is not None else jnp.atleast_1d(jnp.asarray(t1, float))
+        ys = host_solve(name, vector_field, t0, t1, y0, args, ts, rtol=self.rtol, atol=self.atol,
+                        max_steps=self.max_steps)
+        return diffrax.Solution(t0=t0, t1=t1, ts=ts, ys=ys, interpolation=None, stats={},
+                                result=diffrax.RESULTS.successful, solver_state=None, controller_state=None,
+                                made_jump=None, event_mask=None)
 
     def as_dict(self) -> dict:
         """The settings, JSON-ready (the step controller named)."""
