@@ -81,14 +81,18 @@ def _equation(label: str, node, species, declared_only: bool, skip_third_bodies:
     """The parsed equation of a reaction the phase keeps, or None for one it leaves out, by
     Cantera's rules: a reaction with a species not in the phase is left out under
     `declared-species` and refused otherwise; one whose specific third body (`(+AR)`) is not in
-    the phase is left out under `skip-undeclared-third-bodies: true` and refused otherwise."""
+    the phase is left out under `skip-undeclared-third-bodies: true` and refused otherwise (also
+    written as a species on both sides, `H + O2 + AR <=> HO2 + AR`, which Cantera reads as a
+    third body)."""
     try:
         equation = parse_equation(str(node["equation"]))
     except ValueError as error:
         raise InputError(f"{label}: {error}.") from None
     undeclared = [name for name in (*equation.reactants, *equation.products) if name not in species]
     if undeclared:
-        if declared_only:
+        name = undeclared[0]
+        collider = set(undeclared) == {name} and name in equation.reactants and name in equation.products
+        if declared_only or (collider and skip_third_bodies):
             return None
         raise InputError(f"{label}: species {undeclared[0]!r} is not in the phase.")
     if equation.collider not in (None, "M", *species):
