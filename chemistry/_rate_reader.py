@@ -1,4 +1,4 @@
-"""Reading one reaction's rate expression into SI numbers (Arrhenius, Troe and SRI falloff
+"""Reading one reaction's rate expression into SI numbers (Arrhenius, Troe, Tsang and SRI falloff
 parameters, PLOG table, Chebyshev fit), and stacking the PLOG and Chebyshev reactions into the
 padded arrays of `Plog` and `Chebyshev`."""
 
@@ -30,6 +30,16 @@ def troe_parameters(troe):
         return 0.0, 0.0, 0.0, 0.0, 0.0
     inverse = [0.0 if abs(float(troe[key])) < 1e-300 else 1.0 / float(troe[key]) for key in ("T3", "T1")]
     return float(troe["A"]), *inverse, float(troe.get("T2", 0.0)), float("T2" in troe)
+
+
+def tsang_parameters(label: str, tsang):
+    """(A - 1, B [1/K]) of a `Tsang` mapping (F_cent = A + B T; B defaults to 0), or (0, 0)
+    without one: the terms `Falloff` adds to the neutral Troe centring, which is 1."""
+    if tsang is None:
+        return 0.0, 0.0
+    if "A" not in tsang or not set(tsang) <= {"A", "B"}:
+        raise InputError(f"{label}: Tsang needs A and optionally B; got {', '.join(map(str, tsang))}.")
+    return float(tsang["A"]) - 1.0, float(tsang.get("B", 0.0))
 
 
 def sri_parameters(label: str, sri):

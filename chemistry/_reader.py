@@ -10,7 +10,7 @@ from snapo_ode import InputError
 from ._equation import Equation, parse_equation
 from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
 from ._rate_reader import (arrhenius, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev, stack_plog,
-                           troe_parameters)
+                           troe_parameters, tsang_parameters)
 from ._sources import Source, Sources, load, phase_species, section_names
 from ._thermo import SpeciesThermo
 from ._units import GAS_CONSTANT, ONE_ATM
@@ -18,8 +18,10 @@ from ._units import GAS_CONSTANT, ONE_ATM
 _THERMO_MODELS = ("ideal-gas", "ideal-condensed")
 _ACTIVITY_BASES = ("unity", "species-molar-volume", "solvent-molar-volume")
 _PRESSURE_TYPES = ("pressure-dependent-Arrhenius", "Chebyshev")
-_SUPPORTED_TYPES = ("elementary", "three-body", "falloff", *_PRESSURE_TYPES)
-_SUPPORTED = "elementary, three-body, falloff (Lindemann, Troe, SRI), pressure-dependent-Arrhenius (PLOG), Chebyshev"
+_FALLOFF_TYPES = ("falloff", "chemically-activated")
+_SUPPORTED_TYPES = ("elementary", "three-body", *_FALLOFF_TYPES, *_PRESSURE_TYPES)
+_SUPPORTED = ("elementary, three-body, falloff and chemically-activated (Lindemann, Troe, Tsang, SRI), "
+              "pressure-dependent-Arrhenius (PLOG), Chebyshev")
 
 
 def _pick_phase(path, document, phase):
@@ -112,8 +114,6 @@ class _Reaction:
         kind = node.get("type")
         if kind is None:
             kind = "falloff" if eq.falloff else ("three-body" if eq.collider else "elementary")
-        if kind == "falloff" and "Tsang" in node:
-            kind = "falloff (Tsang)"
         misplaced = ("rate-constants", "data", "sticking-coefficient") if kind not in _PRESSURE_TYPES else ()
         if kind not in _SUPPORTED_TYPES or any(key in node for key in misplaced):
             raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: {_SUPPORTED}.")
@@ -139,14 +139,18 @@ class _Reaction:
             self.pressure_rate = read(label, node, order, units, concentration_scaled)
             self.a, self.b, self.t_a = 0.0, 0.0, 0.0  # unused: the rate is the table's or the fit's
         else:
-            rate_key = "high-P-rate-constant" if kind == "falloff" else "rate-constant"
+            # A chemically-activated rate tends to k_low at low pressure and k_high / [M] at high
+            # pressure, so its k_low has the reaction's order and its k_high one less; a falloff
+            # rate's k_high has the reaction's order and its k_low one more.
+            rate_key = "high-P-rate-constant" if kind in _FALLOFF_TYPES else "rate-constant"
             if rate_key not in node:
                 raise InputError(f"{label}: missing {rate_key!r}.")
-            self.a, self.b, self.t_a = arrhenius(label, node[rate_key], order, units, concentration_scaled)
+            high_order = order - 1 if kind == "chemically-activated" else order
+            self.a, self.b, self.t_a = arrhenius(label, node[rate_key], high_order, units, concentration_scaled)
         if self.a < 0 and not node.get("negative-A", False):
             raise InputError(f"{label}: A = {self.a} is negative; allowed only with negative-A: true.")
         self.efficiencies = None
-        if kind in ("three-body", "falloff"):
+        if kind in ("three-body", *_FALLOFF_TYPES):
             if eq.collider not in (None, "M"):
                 self.efficiencies = {name: 0.0 for name in species}
                 self.efficiencies[eq.collider] = 1.0
@@ -159,11 +163,16 @@ class _Reaction:
                     elif not skip_third_bodies:
                         raise InputError(f"{label}: efficiency for {name!r}, which is not in the phase; set "
                                          "skip-undeclared-third-bodies: true on the phase to ignore it.")
-        if kind == "falloff":
-            self.low = arrhenius(label, node["low-P-rate-constant"], order + 1, units, concentration_scaled)
-            if "SRI" in node and "Troe" in node:
-                raise InputError(f"{label}: a falloff reaction has either Troe or SRI parameters, not both.")
-            self.troe, self.sri = troe_parameters(node.get("Troe")), sri_parameters(label, node.get("SRI"))
+        if kind in _FALLOFF_TYPES:
+            if "low-P-rate-constant" not in node:
+                raise InputError(f"{label}: missing 'low-P-rate-constant'.")
+            self.low = arrhenius(label, node["low-P-rate-constant"], high_order + 1, units, concentration_scaled)
+            given = [key for key in ("Troe", "Tsang", "SRI") if key in node]
+            if len(given) > 1:
+                raise InputError(f"{label}: a {kind} reaction has one of Troe, Tsang or SRI parameters; got "
+                                 f"{' and '.join(given)}.")
+            self.centring = troe_parameters(node.get("Troe")) + tsang_parameters(label, node.get("Tsang"))
+            self.sri = sri_parameters(label, node.get("SRI"))
 
 
 
@@ -244,7 +253,7 @@ def read_mechanism(cls, path, phase=None):
             product[i, species.index(name)] = nu
     reversible = np.array([i for i, r in enumerate(reactions) if r.reversible], np.int32)
     three = [r for r in reactions if r.kind == "three-body"]
-    fall = [r for r in reactions if r.kind == "falloff"]
+    fall = [r for r in reactions if r.kind in _FALLOFF_TYPES]
 
     def efficiencies(rows):
         return jnp.asarray(np.array([[r.efficiencies[s] for s in species] for r in rows]).reshape(len(rows), n_s))
@@ -274,8 +283,9 @@ def read_mechanism(cls, path, phase=None):
         falloff=Falloff(
             jnp.asarray(np.array([r.index for r in fall], np.int32)),
             efficiencies(fall),
+            jnp.asarray(np.array([r.kind == "chemically-activated" for r in fall], bool)),
             *(column(fall, lambda r, j=j: r.low[j]) for j in range(3)),
-            *(column(fall, lambda r, j=j: r.troe[j]) for j in range(5)),
+            *(column(fall, lambda r, j=j: r.centring[j]) for j in range(7)),
             *(column(fall, lambda r, j=j: r.sri[j]) for j in range(5)),
         ),
         plog=stack_plog(*pressure_rated("pressure-dependent-Arrhenius")),

@@ -87,9 +87,10 @@ def test_gradient_wrt_new_rate_parameters_matches_central_differences(mechanism,
 
     _, adjoint = snapo_ode.value_and_sensitivities(objective, parts)
     bumped = snapo_ode.bump_and_revalue(objective, parts)
-    # 1/T_min and 1/T_max (~1e-3 K^-1) take an absolute step of 1e-6, too coarse: a finer one.
+    # 1/T_min and 1/T_max (~1e-3 K^-1) and the Tsang slope (~1e-4 K^-1) take an absolute step of
+    # 1e-6, too coarse: a finer one.
     fine = snapo_ode.bump_and_revalue(objective, parts, relative_step=1e-8)
-    ranges = lambda parts: (parts[1].inv_t_min, parts[1].inv_t_max)  # noqa: E731
+    ranges = lambda parts: (parts[1].inv_t_min, parts[1].inv_t_max, parts[2].tsang_slope)  # noqa: E731
     bumped = eqx.tree_at(ranges, bumped, ranges(fine))
     # Not compared: a padding PLOG term (A = 0), d ln k / dA = 1/k, which a bump of 1e-6 on
     # k ~ 1e10 cannot resolve, and an absent SRI term (c = 0), where a bump to c < 0 gives
