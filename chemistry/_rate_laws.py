@@ -1,6 +1,7 @@
 """The rate laws of a mechanism's reaction types, each evaluated for all its reactions at once:
-the differentiable rate parameters, three-body efficiencies, falloff and chemically-activated rates
-(Lindemann, Troe, Tsang, SRI) and the concentration products of mass action with their orders."""
+the differentiable rate parameters, Blowers-Masel activation energies, three-body efficiencies,
+falloff and chemically-activated rates (Lindemann, Troe, Tsang, SRI) and the concentration products
+of mass action with their orders."""
 
 import functools
 import operator
@@ -30,6 +31,30 @@ class RateParameters(eqx.Module):
     log_multiplier: Vector
     temperature_exponent: Vector
     activation_temperature: Vector
+
+
+class BlowersMasel(eqx.Module):
+    """Blowers-Masel reactions, as Cantera's `BlowersMaselRate`: k = A T^b exp(-E_a / (R T)), with
+    an activation energy that follows the reaction's enthalpy change dH (the net stoichiometry
+    times the species' enthalpies) from the intrinsic E_a0 and the bond energy w:
+    E_a = 0 where dH < -4 E_a0, dH where dH > 4 E_a0, and between them
+    (w + dH/2) (V_P - 2w + dH)^2 / (V_P^2 - 4w^2 + dH^2) with V_P = 2w (w + E_a0) / (w - E_a0).
+    A, b and E_a0 / R are the reactions' entries of the mechanism's `pre_exponential` and
+    `RateParameters` (its `activation_temperature` is E_a0 / R for them).
+
+    - `index`: the reactions, shape `(g,)`.
+    - `bond_energy`: w / R [K], shape `(g,)`.
+    """
+
+    index: Indices
+    bond_energy: Vector
+
+    def activation_temperature(self, intrinsic: Vector, enthalpy: Vector) -> Vector:
+        """E_a / R [K], shape `(g,)`, from E_a0 / R `intrinsic` [K] and dH / R `enthalpy` [K]."""
+        w = self.bond_energy
+        vp = 2.0 * w * (w + intrinsic) / (w - intrinsic)
+        between = (w + enthalpy / 2.0) * (vp - 2.0 * w + enthalpy) ** 2 / (vp * vp - 4.0 * w * w + enthalpy * enthalpy)
+        return jnp.where(enthalpy < -4.0 * intrinsic, 0.0, jnp.where(enthalpy > 4.0 * intrinsic, enthalpy, between))
 
 
 class ThirdBodies(eqx.Module):

@@ -1,6 +1,6 @@
-"""Reading one reaction's rate expression into SI numbers (Arrhenius, Troe, Tsang and SRI falloff
-parameters, PLOG table, Chebyshev fit), and stacking the PLOG and Chebyshev reactions into the
-padded arrays of `Plog` and `Chebyshev`."""
+"""Reading one reaction's rate expression into SI numbers (Arrhenius, Blowers-Masel, Troe, Tsang
+and SRI falloff parameters, PLOG table, Chebyshev fit), and stacking the PLOG and Chebyshev
+reactions into the padded arrays of `Plog` and `Chebyshev`."""
 
 import math
 
@@ -21,6 +21,23 @@ def arrhenius(label: str, rate, order: float, units: UnitSystem, concentration_s
     else:
         a = float(a) * rate_constant_factor(units, order, concentration_scaled)
     return a, float(rate.get("b", 0.0)), units.activation_temperature(f"{label} Ea", rate.get("Ea", 0.0))
+
+
+def blowers_masel(label: str, rate, order: float, units: UnitSystem, concentration_scaled: bool):
+    """(A [SI], b [-], E_a0/R [K], w/R [K]) of a Blowers-Masel `rate-constant` {A, b, Ea0, w}
+    (energies in the file's activation-energy units or their own).
+
+    **Raises:** `InputError` without A or w, or unless w > Ea0 (the barrier's V_P divides by
+    w - Ea0)."""
+    if not isinstance(rate, dict) or "A" not in rate or "w" not in rate:
+        raise InputError(f"{label}: a Blowers-Masel reaction needs rate-constant: {{A: ..., b: ..., Ea0: ..., "
+                         f"w: ...}}; got {rate!r}.")
+    a, b, _ = arrhenius(label, {"A": rate["A"], "b": rate.get("b", 0.0)}, order, units, concentration_scaled)
+    intrinsic = units.activation_temperature(f"{label} Ea0", rate.get("Ea0", 0.0))
+    bond = units.activation_temperature(f"{label} w", rate["w"])
+    if not bond > intrinsic:
+        raise InputError(f"{label}: Blowers-Masel w = {rate['w']!r} must exceed Ea0 = {rate.get('Ea0', 0.0)!r}.")
+    return a, b, intrinsic, bond
 
 
 def troe_parameters(troe):

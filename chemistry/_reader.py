@@ -8,9 +8,9 @@ import numpy as np
 from snapo_ode import InputError
 
 from ._equation import Equation, parse_equation
-from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
-from ._rate_reader import (arrhenius, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev, stack_plog,
-                           troe_parameters, tsang_parameters)
+from ._rate_laws import BlowersMasel, Falloff, Orders, RateParameters, ThirdBodies
+from ._rate_reader import (arrhenius, blowers_masel, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev,
+                           stack_plog, troe_parameters, tsang_parameters)
 from ._sources import Source, Sources, load, phase_species, section_names
 from ._thermo import SpeciesThermo
 from ._units import GAS_CONSTANT, ONE_ATM
@@ -18,10 +18,12 @@ from ._units import GAS_CONSTANT, ONE_ATM
 _THERMO_MODELS = ("ideal-gas", "ideal-condensed")
 _ACTIVITY_BASES = ("unity", "species-molar-volume", "solvent-molar-volume")
 _PRESSURE_TYPES = ("pressure-dependent-Arrhenius", "Chebyshev")
+_GAS_ONLY_TYPES = (*_PRESSURE_TYPES, "Blowers-Masel")
+"""Types that need an ideal gas's pressure or enthalpies, and take no third body."""
 _FALLOFF_TYPES = ("falloff", "chemically-activated")
-_SUPPORTED_TYPES = ("elementary", "three-body", *_FALLOFF_TYPES, *_PRESSURE_TYPES)
+_SUPPORTED_TYPES = ("elementary", "three-body", *_FALLOFF_TYPES, *_GAS_ONLY_TYPES)
 _SUPPORTED = ("elementary, three-body, falloff and chemically-activated (Lindemann, Troe, Tsang, SRI), "
-              "pressure-dependent-Arrhenius (PLOG), Chebyshev")
+              "pressure-dependent-Arrhenius (PLOG), Chebyshev, Blowers-Masel")
 
 
 def _pick_phase(path, document, phase):
@@ -118,7 +120,7 @@ class _Reaction:
         if kind not in _SUPPORTED_TYPES or any(key in node for key in misplaced):
             raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: {_SUPPORTED}.")
         # Cantera ignores a '(+M)' on a Chebyshev reaction (deprecated) and refuses any other collider.
-        if kind in _PRESSURE_TYPES and not (eq.collider is None or (kind == "Chebyshev" and eq.collider == "M"
+        if kind in _GAS_ONLY_TYPES and not (eq.collider is None or (kind == "Chebyshev" and eq.collider == "M"
                                                                     and eq.falloff)):
             raise InputError(f"{label}: a {kind} reaction with a third body is not supported.")
         self.kind = kind
@@ -138,6 +140,9 @@ class _Reaction:
             read = plog_table if kind == "pressure-dependent-Arrhenius" else chebyshev_fit
             self.pressure_rate = read(label, node, order, units, concentration_scaled)
             self.a, self.b, self.t_a = 0.0, 0.0, 0.0  # unused: the rate is the table's or the fit's
+        elif kind == "Blowers-Masel":
+            self.a, self.b, self.t_a, self.bond_energy = blowers_masel(label, node.get("rate-constant"), order, units,
+                                                                       concentration_scaled)
         else:
             # A chemically-activated rate tends to k_low at low pressure and k_high / [M] at high
             # pressure, so its k_low has the reaction's order and its k_high one less; a falloff
@@ -240,9 +245,10 @@ def read_mechanism(cls, path, phase=None):
         raise InputError(f"{first.where}: reaction {first.index} ({first.equation}) is reversible in an "
                          "ideal-condensed phase; write it as two irreversible reactions.")
     for r in reactions:
-        if thermo_model != "ideal-gas" and r.kind in _PRESSURE_TYPES:
+        if thermo_model != "ideal-gas" and r.kind in _GAS_ONLY_TYPES:
             raise InputError(f"{r.where}: reaction {r.index} ({r.equation}): a {r.kind} reaction needs the "
-                             "pressure of an ideal-gas phase; it is not supported in an ideal-condensed one.")
+                             "pressure or enthalpies of an ideal-gas phase; it is not supported in an "
+                             "ideal-condensed one.")
     n_s, n_r = len(species), len(reactions)
     reactant = np.zeros((n_r, n_s))
     product = np.zeros((n_r, n_s))
@@ -253,6 +259,7 @@ def read_mechanism(cls, path, phase=None):
             product[i, species.index(name)] = nu
     reversible = np.array([i for i, r in enumerate(reactions) if r.reversible], np.int32)
     three = [r for r in reactions if r.kind == "three-body"]
+    blowers = [r for r in reactions if r.kind == "Blowers-Masel"]
     fall = [r for r in reactions if r.kind in _FALLOFF_TYPES]
 
     def efficiencies(rows):
@@ -279,6 +286,8 @@ def read_mechanism(cls, path, phase=None):
         forward=_orders(species, [r.orders for r in reactions]),
         reverse=_orders(species, [reactions[i].products for i in reversible]),
         reversible_index=jnp.asarray(reversible),
+        blowers_masel=BlowersMasel(jnp.asarray(np.array([r.index for r in blowers], np.int32)),
+                                   column(blowers, lambda r: r.bond_energy)),
         three_body=ThirdBodies(jnp.asarray(np.array([r.index for r in three], np.int32)), efficiencies(three)),
         falloff=Falloff(
             jnp.asarray(np.array([r.index for r in fall], np.int32)),

@@ -38,12 +38,12 @@ def test_reaction_types_mechanism_has_every_supported_type(mechanisms):
     gas = cantera.Solution(str(MECHANISM_PATHS["reaction_types"]))
     kinds = {reaction.reaction_type for reaction in gas.reactions()}
     assert kinds == {"Arrhenius", "three-body-Arrhenius", "falloff-Lindemann", "falloff-Troe", "falloff-SRI",
-                     "falloff-Tsang", "chemically-activated-Troe", "chemically-activated-Lindemann",
+                     "falloff-Tsang", "chemically-activated-Troe", "chemically-activated-Lindemann", "Blowers-Masel",
                      "pressure-dependent-Arrhenius", "Chebyshev"}
     mechanism = mechanisms["reaction_types"]
     assert float(mechanism.pre_exponential.min()) < 0  # the negative-A duplicate
     assert not bool(mechanism.thermo.is_nasa.all())  # constant-cp species
-    assert mechanism.n_reactions - mechanism.reversible_index.size == 4  # irreversible ones
+    assert mechanism.n_reactions - mechanism.reversible_index.size == 5  # irreversible ones
 
 
 def _state(mechanism, seed):
