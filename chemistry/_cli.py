@@ -23,9 +23,9 @@ def run_check(args) -> int:
 
 
 def run_sweep(args) -> int:
-    from ._sweep import markdown_table, sweep_cantera_data
+    from ._sweep import markdown_table, sweep
 
-    print(markdown_table(sweep_cantera_data(n_states=args.states, seed=args.seed)))
+    print(markdown_table(sweep(args.files or None, n_states=args.states, seed=args.seed)))
     return 0
 
 
@@ -61,8 +61,10 @@ def register_kinetics(cli: CommandLine) -> None:
     check.add_argument("--no-ignition", action="store_true", help="rates only")
     check.add_argument("--no-sensitivities", action="store_true", help="skip the sensitivity comparison")
     check.set_defaults(handler=run_check)
-    sweep = cli.command("sweep", "every ideal-gas phase shipped with Cantera: read and compared with Cantera, "
-                        "or refused naming the feature (a Markdown table)", group=kinetics)
+    sweep = cli.command("sweep", "every ideal-gas phase shipped with Cantera (or of the files given): read and "
+                        "compared with Cantera, or refused naming the feature (a Markdown table)", group=kinetics)
+    sweep.add_argument("files", nargs="*", type=pathlib.Path, metavar="MECH.yaml",
+                       help="YAML files (default: every *.yaml in Cantera's data directory)")
     sweep.add_argument("--states", type=int, default=4, help="random states per phase (T 500-2500 K, "
                        "P 0.01-100 atm)")
     sweep.set_defaults(handler=run_sweep)

@@ -32,11 +32,11 @@ def cantera_data_directory() -> Path:
     return Path(cantera.__file__).parent / "data"
 
 
-def ideal_gas_phases(directory: Path) -> list[tuple[Path, str]]:
-    """(file, phase name) of every phase with `thermo: ideal-gas` in the `*.yaml` files under
-    `directory`, sorted by file."""
+def ideal_gas_phases(paths: list[Path]) -> list[tuple[Path, str]]:
+    """(file, phase name) of every phase with `thermo: ideal-gas` in the YAML files `paths`, in
+    their order."""
     phases = []
-    for path in sorted(directory.rglob("*.yaml")):
+    for path in paths:
         block = _PHASES_BLOCK.search(path.read_text(encoding="utf-8"))
         for node in YAML(typ="safe").load(block.group(1)) if block else []:
             if node.get("thermo") == "ideal-gas":
@@ -65,13 +65,15 @@ class PhaseSweep(NamedTuple):
         return max(self.rates.rates_of_progress, self.rates.net_production)
 
 
-def sweep_phase(path: Path, phase: str, *, directory: Path, n_states: int = 4, seed: int = 0) -> PhaseSweep:
+def sweep_phase(path: Path, phase: str, *, n_states: int = 4, seed: int = 0) -> PhaseSweep:
     """Read `phase` of `path` and compare it with Cantera at `n_states` random states (T in
-    `TEMPERATURES`, P in `PRESSURES`, random compositions), or record our refusal.
+    `TEMPERATURES`, P in `PRESSURES`, random compositions), or record our refusal. The file is
+    named relative to Cantera's data directory when it is in it.
 
     **Raises:** whatever is not an `InputError` (a crash, or `ValueError` when Cantera reads
     other species or reactions): those are defects, not refusals."""
-    name = str(path.relative_to(directory))
+    data = cantera_data_directory()
+    name = str(path.relative_to(data)) if path.is_relative_to(data) else str(path)
     start = time.perf_counter()
     try:
         mechanism = Mechanism.from_yaml(path, phase)
@@ -89,7 +91,8 @@ def markdown_table(results: list[PhaseSweep]) -> str:
     lines = ["| file | phase | species | reactions | result |", "| --- | --- | --- | --- | --- |"]
     for r in results:
         if r.refused is not None:
-            reason = r.refused.split(": ", 1)[-1] if r.refused.startswith("/") else r.refused
+            # The message without the file's path and the list of what is supported.
+            reason = (r.refused.split(": ", 1)[-1] if r.refused.startswith("/") else r.refused).split("; supported")[0]
             lines.append(f"| {r.file} | {r.phase} | | | refused: {reason} |")
         elif r.n_reactions == 0:
             lines.append(f"| {r.file} | {r.phase} | {r.n_species} | 0 | loaded (no kinetics); thermo "
@@ -100,8 +103,8 @@ def markdown_table(results: list[PhaseSweep]) -> str:
     return "\n".join(lines)
 
 
-def sweep_cantera_data(n_states: int = 4, seed: int = 0) -> list[PhaseSweep]:
-    """`sweep_phase` on every ideal-gas phase of Cantera's data directory."""
-    directory = cantera_data_directory()
-    return [sweep_phase(path, phase, directory=directory, n_states=n_states, seed=seed)
-            for path, phase in ideal_gas_phases(directory)]
+def sweep(paths: list[Path] | None = None, *, n_states: int = 4, seed: int = 0) -> list[PhaseSweep]:
+    """`sweep_phase` on every ideal-gas phase of the YAML files `paths` (default: every `*.yaml`
+    under Cantera's data directory)."""
+    paths = sorted(cantera_data_directory().rglob("*.yaml")) if paths is None else [Path(p) for p in paths]
+    return [sweep_phase(path, phase, n_states=n_states, seed=seed) for path, phase in ideal_gas_phases(paths)]

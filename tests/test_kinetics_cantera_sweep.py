@@ -12,9 +12,10 @@ import pytest
 from chemistry import Mechanism, compare_rates
 from chemistry._sweep import cantera_data_directory, ideal_gas_phases, sweep_phase
 from snapo_ode import InputError
+from snapo_ode.cli import main
 
 DIRECTORY = cantera_data_directory()
-PHASES = ideal_gas_phases(DIRECTORY)
+PHASES = ideal_gas_phases(sorted(DIRECTORY.rglob("*.yaml")))
 REFUSED = {
     ("airNASA9.yaml", "airNASA9"): "thermo model 'NASA9'",
     ("example_data/ammonia-CO-H2-Alzueta-2023.yaml", "linear-Burke"): "reaction type 'linear-Burke'",
@@ -32,7 +33,7 @@ def test_the_sweep_finds_the_shipped_phases():
 
 @pytest.mark.parametrize(("path", "phase"), PHASES, ids=[f"{path.name}:{phase}" for path, phase in PHASES])
 def test_phase_matches_cantera_or_is_refused_naming_the_feature(path, phase):
-    result = sweep_phase(path, phase, directory=DIRECTORY, n_states=4)
+    result = sweep_phase(path, phase, n_states=4)
     feature = REFUSED.get((result.file, phase))
     if feature is not None:
         assert result.refused is not None and feature in result.refused, result
@@ -108,3 +109,12 @@ def test_a_missing_included_file_is_named(tmp_path):
     path.write_text("phases:\n- name: gas\n  thermo: ideal-gas\n  species: [{no-such-file.yaml/species: all}]\n")
     with pytest.raises(InputError, match="'no-such-file.yaml'"):
         Mechanism.from_yaml(path)
+
+
+def test_sweep_command_tables_the_phases_of_the_files_given(capsys):
+    files = [str(DIRECTORY / "air.yaml"), str(DIRECTORY / "airNASA9.yaml")]
+    assert main(["kinetics", "sweep", "--states", "2", *files]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| air")]
+    assert rows[0].startswith("| air.yaml | air | 8 | 8 | loaded: rates ")
+    assert rows[1] == "| airNASA9.yaml | airNASA9 | | | refused: species 'N2' has thermo model 'NASA9' |"
+    assert len(rows) == 2
