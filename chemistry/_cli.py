@@ -1,4 +1,4 @@
-"""`snapo kinetics check` and `snapo bench kinetics`.
+"""`snapo kinetics check`, `snapo kinetics sweep` and `snapo bench kinetics`.
 
 Heavy imports (JAX, Cantera, the model) happen inside the handlers, so `snapo --help` stays quick.
 """
@@ -22,6 +22,13 @@ def run_check(args) -> int:
     return 0
 
 
+def run_sweep(args) -> int:
+    from ._sweep import markdown_table, sweep
+
+    print(markdown_table(sweep(args.files or None, n_states=args.states, seed=args.seed)))
+    return 0
+
+
 def run_bench(args) -> int:
     from ._bench import run_kinetics_benchmark
 
@@ -36,7 +43,7 @@ def stiff_accuracy(args):
 
 
 def register_kinetics(cli: CommandLine) -> None:
-    """Add `snapo kinetics check` and `snapo bench kinetics`."""
+    """Add `snapo kinetics check`, `snapo kinetics sweep` and `snapo bench kinetics`."""
     kinetics = cli.group("kinetics", "Cantera-YAML kinetics: check a mechanism against Cantera")
     check = cli.command("check", "rates at random states, constant-volume ignition and d ln T / d ln A against "
                         "Cantera", group=kinetics)
@@ -54,6 +61,13 @@ def register_kinetics(cli: CommandLine) -> None:
     check.add_argument("--no-ignition", action="store_true", help="rates only")
     check.add_argument("--no-sensitivities", action="store_true", help="skip the sensitivity comparison")
     check.set_defaults(handler=run_check)
+    sweep = cli.command("sweep", "every ideal-gas phase shipped with Cantera (or of the files given): read and "
+                        "compared with Cantera, or refused naming the feature (a Markdown table)", group=kinetics)
+    sweep.add_argument("files", nargs="*", type=pathlib.Path, metavar="MECH.yaml",
+                       help="YAML files (default: every *.yaml in Cantera's data directory)")
+    sweep.add_argument("--states", type=int, default=4, help="random states per phase (T 500-2500 K, "
+                       "P 0.01-100 atm)")
+    sweep.set_defaults(handler=run_sweep)
     bench = cli.bench("kinetics", "forward solve and gradient wrt every A-factor vs Cantera with and without "
                       "forward sensitivities, at equal tolerance")
     bench.add_argument("--mechanisms", nargs="+", default=["h2o2", "gri30"], choices=["h2o2", "gri30"],

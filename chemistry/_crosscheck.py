@@ -1,5 +1,5 @@
-"""Cross-checks against Cantera (imported lazily): rates at random states, used by the tests and by
-`snapo kinetics check`."""
+"""Cross-checks against Cantera (imported lazily): rates and species thermo at random states, used by
+the tests and by `snapo kinetics check`."""
 
 from pathlib import Path
 from typing import NamedTuple
@@ -51,11 +51,22 @@ def _batched_rates(mechanism: Mechanism, temperatures, concentrations):
 
 
 def compare_rates(mechanism: Mechanism, path, phase=None, *, n_states: int = 120, seed: int = 0,
-                  temperature=(300.0, 2500.0)) -> RateComparison:
-    """Rates of progress and net production rates at `n_states` random states against Cantera."""
+                  temperature=(300.0, 2500.0), pressure=(1e3, 1e7)) -> RateComparison:
+    """Rates of progress and net production rates at `n_states` random states (`temperature`
+    [K] and `pressure` [Pa] ranges) against Cantera. A phase without reactions compares nothing
+    (errors 0, `n_compared` 0).
+
+    **Raises:** `ValueError` if Cantera reads other species or another number of reactions
+    from the file: the rates would be compared position by position."""
     solution = cantera_solution(path, phase)
+    if tuple(solution.species_names) != mechanism.species_names or solution.n_reactions != mechanism.n_reactions:
+        raise ValueError(f"{path} (phase {phase}): Cantera reads {solution.n_species} species and "
+                         f"{solution.n_reactions} reactions, we read {mechanism.n_species} and {mechanism.n_reactions}"
+                         " (or the species differ).")
+    if not mechanism.n_reactions:
+        return RateComparison(n_states, 0.0, 0.0, 0)
     temperatures, pressures, fractions = random_states(mechanism.n_species, n_states, seed,
-                                                       temperature=temperature)
+                                                       temperature=temperature, pressure=pressure)
     reference = {"concentrations": [], "forward": [], "reverse": [], "net": [], "gross": []}
     for t, p, x in zip(temperatures, pressures, fractions):
         if mechanism.thermo_model == "ideal-gas":
@@ -83,3 +94,26 @@ def _relative(ours, reference) -> float:
     if np.any(mismatch[~mask] > 0):
         return float("inf")
     return float(np.max(mismatch[mask] / scale[mask], initial=0.0))
+
+
+@eqx.filter_jit
+def _batched_thermo(mechanism: Mechanism, temperatures):
+    thermo = mechanism.thermo
+    return jax.vmap(lambda t: (thermo.cp_r(t), thermo.h_rt(t), thermo.s_r(t)))(temperatures)
+
+
+def compare_thermo(mechanism: Mechanism, path, phase=None, *, n_states: int = 120, seed: int = 0,
+                   temperature=(300.0, 2500.0)) -> float:
+    """The largest error of the species' reference-state cp/R, h/(R T) and s/R against Cantera's
+    at `n_states` random temperatures [K], relative to max(|Cantera's value|, 1): h/(R T) crosses
+    zero, where a plain relative error means nothing. It checks what a phase without reactions
+    reads, and the thermo behind every reverse rate."""
+    solution = cantera_solution(path, phase)
+    temperatures = np.random.default_rng(seed).uniform(*temperature, n_states)
+    reference = []
+    for t in temperatures:
+        solution.TP = t, solution.reference_pressure
+        reference.append((solution.standard_cp_R, solution.standard_enthalpies_RT, solution.standard_entropies_R))
+    ours = np.stack([np.asarray(a) for a in _batched_thermo(mechanism, temperatures)], axis=1)
+    reference = np.array(reference)
+    return float(np.max(np.abs(ours - reference) / np.maximum(np.abs(reference), 1.0), initial=0.0))

@@ -15,7 +15,7 @@ from jax.custom_derivatives import SymbolicZero
 from snapo_ode import InputError, require_float64
 
 from ._pressure_rates import Chebyshev, Plog
-from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
+from ._rate_laws import BlowersMasel, Falloff, Orders, RateParameters, ThirdBodies
 from ._reader import read_mechanism
 from ._thermo import SpeciesThermo
 from ._units import GAS_CONSTANT
@@ -40,6 +40,7 @@ class Mechanism(eqx.Module):
       `(n_reactions, q)`, padded with `n_species`.
     - `forward`: `Orders` of the forward rates; `reverse`: `Orders` of the reversible reactions'
       reverse rates (their products' stoichiometry), which are `reversible_index`.
+    - `blowers_masel`: the reactions whose activation energy depends on their enthalpy change.
     - `three_body`, `falloff`: the reactions whose rate depends on a collision partner's
       concentration; `plog`, `chebyshev`: those whose rate depends on the pressure, which is the
       ideal gas's R T sum(concentrations), as in Cantera.
@@ -59,6 +60,7 @@ class Mechanism(eqx.Module):
     forward: Orders
     reverse: Orders
     reversible_index: Indices
+    blowers_masel: BlowersMasel
     three_body: ThirdBodies
     falloff: Falloff
     plog: Plog
@@ -69,10 +71,12 @@ class Mechanism(eqx.Module):
     def from_yaml(cls, path: str | Path, phase: str | None = None) -> "Mechanism":
         """Read phase `phase` (default: the first) of the Cantera YAML file at `path`.
 
-        Supported: NASA7 and constant-cp thermo; ideal-gas or ideal-condensed phases; elementary
-        (reversible or not, explicit `orders`, negative A on duplicates), three-body with
-        efficiencies, falloff (Lindemann, Troe, SRI), PLOG (`pressure-dependent-Arrhenius`) and
-        Chebyshev (ideal-gas phases). Transport data are not needed.
+        Supported: NASA7 and constant-cp thermo; ideal-gas or ideal-condensed phases, with species
+        and reactions from other files (`gri30.yaml/species: [...]`); elementary (reversible or
+        not, explicit `orders`, negative A on duplicates), three-body with efficiencies, falloff
+        and chemically-activated (Lindemann, Troe, Tsang, SRI), and in ideal-gas phases PLOG
+        (`pressure-dependent-Arrhenius`), Chebyshev and Blowers-Masel. Transport data are not
+        needed.
 
         **Raises:** `InputError` naming the reaction (index, line, equation) and its type for an
         unsupported reaction, and naming the field for unsupported thermo or units.
@@ -133,7 +137,13 @@ class Mechanism(eqx.Module):
         `efficiencies @ activities`), shape `(g,)`, with `efficiencies` `(g, n_species)` (for the
         pressure-dependent groups, whose partner is the total concentration, `(1, n_species)` ones)."""
         log_t = jnp.log(temperature)
-        k = self.pre_exponential * jnp.exp(p.temperature_exponent * log_t - p.activation_temperature / temperature)
+        activation = p.activation_temperature
+        blowers_masel = self.blowers_masel
+        if blowers_masel.index.size:
+            enthalpy = self.net_stoichiometry[blowers_masel.index] @ self.thermo.h_rt(temperature) * temperature
+            activation = activation.at[blowers_masel.index].set(blowers_masel.activation_temperature(
+                activation[blowers_masel.index], enthalpy))
+        k = self.pre_exponential * jnp.exp(p.temperature_exponent * log_t - activation / temperature)
         multiplier = jnp.exp(p.log_multiplier)
         slopes = []
         three_body = self.three_body

@@ -1,6 +1,7 @@
 """The rate laws of a mechanism's reaction types, each evaluated for all its reactions at once:
-the differentiable rate parameters, three-body efficiencies, falloff (Lindemann, Troe, SRI) and the
-concentration products of mass action with their orders."""
+the differentiable rate parameters, Blowers-Masel activation energies, three-body efficiencies,
+falloff and chemically-activated rates (Lindemann, Troe, Tsang, SRI) and the concentration products
+of mass action with their orders."""
 
 import functools
 import operator
@@ -9,7 +10,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ._types import IndexMatrix, Indices, Matrix, Vector
+from ._types import IndexMatrix, Indices, Mask, Matrix, Vector
 
 # Cantera's guard against a zero high-pressure rate in the reduced pressure.
 _SMALL = 1e-300
@@ -32,6 +33,30 @@ class RateParameters(eqx.Module):
     activation_temperature: Vector
 
 
+class BlowersMasel(eqx.Module):
+    """Blowers-Masel reactions, as Cantera's `BlowersMaselRate`: k = A T^b exp(-E_a / (R T)), with
+    an activation energy that follows the reaction's enthalpy change dH (the net stoichiometry
+    times the species' enthalpies) from the intrinsic E_a0 and the bond energy w:
+    E_a = 0 where dH < -4 E_a0, dH where dH > 4 E_a0, and between them
+    (w + dH/2) (V_P - 2w + dH)^2 / (V_P^2 - 4w^2 + dH^2) with V_P = 2w (w + E_a0) / (w - E_a0).
+    A, b and E_a0 / R are the reactions' entries of the mechanism's `pre_exponential` and
+    `RateParameters` (its `activation_temperature` is E_a0 / R for them).
+
+    - `index`: the reactions, shape `(g,)`.
+    - `bond_energy`: w / R [K], shape `(g,)`.
+    """
+
+    index: Indices
+    bond_energy: Vector
+
+    def activation_temperature(self, intrinsic: Vector, enthalpy: Vector) -> Vector:
+        """E_a / R [K], shape `(g,)`, from E_a0 / R `intrinsic` [K] and dH / R `enthalpy` [K]."""
+        w = self.bond_energy
+        vp = 2.0 * w * (w + intrinsic) / (w - intrinsic)
+        between = (w + enthalpy / 2.0) * (vp - 2.0 * w + enthalpy) ** 2 / (vp * vp - 4.0 * w * w + enthalpy * enthalpy)
+        return jnp.where(enthalpy < -4.0 * intrinsic, 0.0, jnp.where(enthalpy > 4.0 * intrinsic, enthalpy, between))
+
+
 class ThirdBodies(eqx.Module):
     """Three-body reactions `index` (shape `(t,)`) with collision efficiencies `(t, n_species)`."""
 
@@ -40,16 +65,22 @@ class ThirdBodies(eqx.Module):
 
 
 class Falloff(eqx.Module):
-    """Falloff reactions (Lindemann, Troe and SRI): k = k_high Pr / (1 + Pr) F_Troe F_SRI, where a
-    Troe reaction has the SRI factor's neutral parameters, an SRI reaction the Troe factor's and a
-    Lindemann reaction both (each factor is then exactly 1).
+    """Falloff reactions (Lindemann, Troe, Tsang and SRI): k = k_high Pr / (1 + Pr) F_Troe F_SRI,
+    and chemically-activated ones: k = k_low / (1 + Pr) F_Troe F_SRI, with the reduced pressure
+    Pr = [M] k_low / k_high, as Cantera's `FalloffRate`. A Troe or Tsang reaction has the SRI
+    factor's neutral parameters, an SRI reaction the Troe factor's and a Lindemann reaction both
+    (each factor is then exactly 1).
 
     - `index`: shape `(f,)`; `efficiencies`: `(f, n_species)`.
+    - `activated`: True for a chemically-activated reaction, False for a falloff one.
     - `low_a` [kmol, m^3, s units of one order more than the high-pressure limit], `low_b` [-],
       `low_activation_temperature` [K]: the low-pressure Arrhenius limit.
     - `troe_a` [-], `troe_inv_t3` = 1/T3 [1/K], `troe_inv_t1` = 1/T1 [1/K], `troe_t2` [K],
-      `troe_has_t2` (0 or 1): the Troe centring; 1/T = 0 stands for an infinite or absent T.
-      Neutral: all 0.
+      `troe_has_t2` (0 or 1), `tsang_offset` [-], `tsang_slope` [1/K]: the centring
+      F_cent = (1 - A) exp(-T/T3) + A exp(-T/T1) + exp(-T2/T) + tsang_offset + tsang_slope T,
+      where 1/T = 0 stands for an infinite or absent T. A Troe reaction has the Tsang terms 0; a
+      Tsang one (F_cent = A + B T) has the Troe terms neutral (exactly 1), `tsang_offset` = A - 1
+      and `tsang_slope` = B. Neutral: all 0.
     - `sri_a` [-], `sri_b` [K], `sri_c` [K], `sri_d` [-], `sri_e` [-]: F_SRI = d T^e
       [a exp(-b/T) + exp(-T/c)]^X with X = 1 / (1 + log10(Pr)^2) (c = 0: no exp(-T/c) term, as
       in Cantera; the 3-parameter form has d = 1, e = 0). Neutral: a = 1, b = c = 0, d = 1, e = 0.
@@ -57,6 +88,7 @@ class Falloff(eqx.Module):
 
     index: Indices
     efficiencies: Matrix
+    activated: Mask
     low_a: Vector
     low_b: Vector
     low_activation_temperature: Vector
@@ -65,6 +97,8 @@ class Falloff(eqx.Module):
     troe_inv_t1: Vector
     troe_t2: Vector
     troe_has_t2: Vector
+    tsang_offset: Vector
+    tsang_slope: Vector
     sri_a: Vector
     sri_b: Vector
     sri_c: Vector
@@ -78,14 +112,16 @@ class Falloff(eqx.Module):
         reduced_pressure = collision * k_low / (k_high + _SMALL)
         f_cent = ((1 - self.troe_a) * jnp.exp(-temperature * self.troe_inv_t3)
                   + self.troe_a * jnp.exp(-temperature * self.troe_inv_t1)
-                  + self.troe_has_t2 * jnp.exp(-self.troe_t2 / temperature))
+                  + self.troe_has_t2 * jnp.exp(-self.troe_t2 / temperature)
+                  + self.tsang_offset + self.tsang_slope * temperature)
         log_f_cent = jnp.log10(jnp.maximum(f_cent, _SMALL))
         log_pr = jnp.log10(jnp.maximum(reduced_pressure, _SMALL))
         c = -0.4 - 0.67 * log_f_cent
         n = 0.75 - 1.27 * log_f_cent
         f1 = (log_pr + c) / (n - 0.14 * (log_pr + c))
         broadening = 10.0 ** (log_f_cent / (1 + f1 * f1))
-        return k_high * reduced_pressure / (1 + reduced_pressure) * broadening * self._sri(temperature, log_t, log_pr)
+        limit = jnp.where(self.activated, k_low, k_high * reduced_pressure)
+        return limit / (1 + reduced_pressure) * broadening * self._sri(temperature, log_t, log_pr)
 
     def _sri(self, temperature, log_t, log_pr):
         """F_SRI of each reaction, shape `(f,)`. c = 0 (no term) goes through a double where, so

@@ -1,6 +1,6 @@
-"""Reading one reaction's rate expression into SI numbers (Arrhenius, Troe and SRI falloff
-parameters, PLOG table, Chebyshev fit), and stacking the PLOG and Chebyshev reactions into the
-padded arrays of `Plog` and `Chebyshev`."""
+"""Reading one reaction's rate expression into SI numbers (Arrhenius, Blowers-Masel, Troe, Tsang
+and SRI falloff parameters, PLOG table, Chebyshev fit), and stacking the PLOG and Chebyshev
+reactions into the padded arrays of `Plog` and `Chebyshev`."""
 
 import math
 
@@ -23,6 +23,23 @@ def arrhenius(label: str, rate, order: float, units: UnitSystem, concentration_s
     return a, float(rate.get("b", 0.0)), units.activation_temperature(f"{label} Ea", rate.get("Ea", 0.0))
 
 
+def blowers_masel(label: str, rate, order: float, units: UnitSystem, concentration_scaled: bool):
+    """(A [SI], b [-], E_a0/R [K], w/R [K]) of a Blowers-Masel `rate-constant` {A, b, Ea0, w}
+    (energies in the file's activation-energy units or their own).
+
+    **Raises:** `InputError` without A or w, or unless w > Ea0 (the barrier's V_P divides by
+    w - Ea0)."""
+    if not isinstance(rate, dict) or "A" not in rate or "w" not in rate:
+        raise InputError(f"{label}: a Blowers-Masel reaction needs rate-constant: {{A: ..., b: ..., Ea0: ..., "
+                         f"w: ...}}; got {rate!r}.")
+    a, b, _ = arrhenius(label, {"A": rate["A"], "b": rate.get("b", 0.0)}, order, units, concentration_scaled)
+    intrinsic = units.activation_temperature(f"{label} Ea0", rate.get("Ea0", 0.0))
+    bond = units.activation_temperature(f"{label} w", rate["w"])
+    if not bond > intrinsic:
+        raise InputError(f"{label}: Blowers-Masel w = {rate['w']!r} must exceed Ea0 = {rate.get('Ea0', 0.0)!r}.")
+    return a, b, intrinsic, bond
+
+
 def troe_parameters(troe):
     """(A, 1/T3 [1/K], 1/T1 [1/K], T2 [K], has T2) of a `Troe` mapping, or the neutral zeros
     without one (Lindemann); Cantera reads |T| below 1e-300 as infinite: 1/T = 0, no term."""
@@ -30,6 +47,16 @@ def troe_parameters(troe):
         return 0.0, 0.0, 0.0, 0.0, 0.0
     inverse = [0.0 if abs(float(troe[key])) < 1e-300 else 1.0 / float(troe[key]) for key in ("T3", "T1")]
     return float(troe["A"]), *inverse, float(troe.get("T2", 0.0)), float("T2" in troe)
+
+
+def tsang_parameters(label: str, tsang):
+    """(A - 1, B [1/K]) of a `Tsang` mapping (F_cent = A + B T; B defaults to 0), or (0, 0)
+    without one: the terms `Falloff` adds to the neutral Troe centring, which is 1."""
+    if tsang is None:
+        return 0.0, 0.0
+    if "A" not in tsang or not set(tsang) <= {"A", "B"}:
+        raise InputError(f"{label}: Tsang needs A and optionally B; got {', '.join(map(str, tsang))}.")
+    return float(tsang["A"]) - 1.0, float(tsang.get("B", 0.0))
 
 
 def sri_parameters(label: str, sri):

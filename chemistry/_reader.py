@@ -4,44 +4,26 @@ from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
-from ruamel.yaml import YAML, YAMLError
 
 from snapo_ode import InputError
 
-from ._equation import parse_equation
-from ._rate_laws import Falloff, Orders, RateParameters, ThirdBodies
-from ._rate_reader import (arrhenius, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev, stack_plog,
-                           troe_parameters)
+from ._equation import Equation, parse_equation
+from ._rate_laws import BlowersMasel, Falloff, Orders, RateParameters, ThirdBodies
+from ._rate_reader import (arrhenius, blowers_masel, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev,
+                           stack_plog, troe_parameters, tsang_parameters)
+from ._sources import Source, Sources, load, phase_species, section_names
 from ._thermo import SpeciesThermo
-from ._units import GAS_CONSTANT, ONE_ATM, UnitSystem
+from ._units import GAS_CONSTANT, ONE_ATM
 
 _THERMO_MODELS = ("ideal-gas", "ideal-condensed")
 _ACTIVITY_BASES = ("unity", "species-molar-volume", "solvent-molar-volume")
 _PRESSURE_TYPES = ("pressure-dependent-Arrhenius", "Chebyshev")
-_SUPPORTED_TYPES = ("elementary", "three-body", "falloff", *_PRESSURE_TYPES)
-_SUPPORTED = "elementary, three-body, falloff (Lindemann, Troe, SRI), pressure-dependent-Arrhenius (PLOG), Chebyshev"
-
-
-def _load(path: Path):
-    if not path.is_file():
-        raise InputError(f"mechanism path {str(path)!r} is not a file.")
-    # The round-trip loader keeps line numbers, which unsupported-reaction errors cite; reading
-    # from the open file makes its errors name the file.
-    try:
-        with open(path, encoding="utf-8") as handle:
-            document = YAML(typ="rt").load(handle)
-    except YAMLError as error:
-        raise InputError(f"mechanism file {path}: not valid YAML: {error}") from None
-    except UnicodeDecodeError as error:
-        raise InputError(f"mechanism file {path}: not UTF-8 text ({error}).") from None
-    if not isinstance(document, dict):
-        raise InputError(f"mechanism file {path}: expected a YAML mapping with a 'phases' section.")
-    return document
-
-
-def _where(path, node) -> str:
-    line = getattr(getattr(node, "lc", None), "line", None)
-    return f"{path}:{line + 1}" if line is not None else str(path)
+_GAS_ONLY_TYPES = (*_PRESSURE_TYPES, "Blowers-Masel")
+"""Types that need an ideal gas's pressure or enthalpies, and take no third body."""
+_FALLOFF_TYPES = ("falloff", "chemically-activated")
+_SUPPORTED_TYPES = ("elementary", "three-body", *_FALLOFF_TYPES, *_GAS_ONLY_TYPES)
+_SUPPORTED = ("elementary, three-body, falloff and chemically-activated (Lindemann, Troe, Tsang, SRI), "
+              "pressure-dependent-Arrhenius (PLOG), Chebyshev, Blowers-Masel")
 
 
 def _pick_phase(path, document, phase):
@@ -56,40 +38,24 @@ def _pick_phase(path, document, phase):
     return phases[names.index(phase)]
 
 
-def _section_names(value, default_section):
-    """The list of (section, names or 'all') a phase's `species`/`reactions` field refers to."""
-    if value is None or value == "all":
-        return [(default_section, "all")]
-    if isinstance(value, str):
-        return [(value, "all")] if value not in ("none", "declared-species") else (
-            [] if value == "none" else [(default_section, "declared")])
-    if all(isinstance(item, str) for item in value):
-        if default_section == "species":
-            return [("species", list(value))]
-        return [(item, "all") for item in value]
-    sections = []
-    for item in value:
-        for section, names in item.items():
-            if "/" in section:
-                raise InputError(f"{section!r}: species or reactions from another file are not supported.")
-            sections.append((section, names))
-    return sections
-
-
-def _thermo(path, species_nodes, units: UnitSystem, thermo_model):
+def _thermo(species_nodes: list[tuple[Source, dict]], thermo_model):
     n = len(species_nodes)
     is_nasa = np.zeros(n, bool)
     t_mid = np.full(n, 1000.0)
     low, high = np.zeros((n, 7)), np.zeros((n, 7))
     t0, h0, s0, cp0 = np.full(n, 298.15), np.zeros(n), np.zeros(n), np.zeros(n)
     volumes = np.zeros(n)
-    for k, node in enumerate(species_nodes):
-        name = node["name"]
+    for k, (source, node) in enumerate(species_nodes):
+        name, units = node["name"], source.units
         thermo = node.get("thermo")
         model = thermo.get("model") if thermo else None
         if model == "NASA7":
             data = [list(map(float, d)) for d in thermo["data"]]
             ranges = list(map(float, thermo["temperature-ranges"]))
+            if len(data) not in (1, 2) or len(ranges) != len(data) + 1:
+                raise InputError(f"{source.where(node)}: species {name!r}: NASA7 needs one or two sets of 7 "
+                                 f"coefficients and one more temperature-ranges entry; got {len(data)} and "
+                                 f"{len(ranges)}.")
             is_nasa[k] = True
             low[k] = data[0]
             high[k] = data[-1]
@@ -102,12 +68,12 @@ def _thermo(path, species_nodes, units: UnitSystem, thermo_model):
             s0[k] = units.convert(f"species {name} s0", thermo.get("s0", 0.0), energy + "/temperature") / GAS_CONSTANT
             cp0[k] = units.convert(f"species {name} cp0", thermo.get("cp0", 0.0), energy + "/temperature") / GAS_CONSTANT
         else:
-            raise InputError(f"{_where(path, node)}: species {name!r} has thermo model {model!r}; "
+            raise InputError(f"{source.where(node)}: species {name!r} has thermo model {model!r}; "
                              "supported: 'NASA7', 'constant-cp'.")
         if thermo_model == "ideal-condensed":
             eos = node.get("equation-of-state") or {}
             if eos.get("model") != "constant-volume" or "molar-volume" not in eos:
-                raise InputError(f"{_where(path, node)}: species {name!r} needs an equation-of-state "
+                raise InputError(f"{source.where(node)}: species {name!r} needs an equation-of-state "
                                  "{model: constant-volume, molar-volume: ...} in an ideal-condensed phase.")
             volumes[k] = units.convert(f"species {name} molar-volume", eos["molar-volume"], "length^3/quantity")
     thermo = SpeciesThermo(jnp.asarray(is_nasa), jnp.asarray(t_mid), jnp.asarray(low), jnp.asarray(high),
@@ -115,31 +81,48 @@ def _thermo(path, species_nodes, units: UnitSystem, thermo_model):
     return thermo, volumes
 
 
+def _equation(label: str, node, species, declared_only: bool, skip_third_bodies: bool) -> Equation | None:
+    """The parsed equation of a reaction the phase keeps, or None for one it leaves out, by
+    Cantera's rules: a reaction with a species not in the phase is left out under
+    `declared-species` and refused otherwise; one whose specific third body (`(+AR)`) is not in
+    the phase is left out under `skip-undeclared-third-bodies: true` and refused otherwise (also
+    written as a species on both sides, `H + O2 + AR <=> HO2 + AR`, which Cantera reads as a
+    third body)."""
+    try:
+        equation = parse_equation(str(node["equation"]))
+    except ValueError as error:
+        raise InputError(f"{label}: {error}.") from None
+    undeclared = [name for name in (*equation.reactants, *equation.products) if name not in species]
+    if undeclared:
+        name = undeclared[0]
+        collider = set(undeclared) == {name} and name in equation.reactants and name in equation.products
+        if declared_only or (collider and skip_third_bodies):
+            return None
+        raise InputError(f"{label}: species {undeclared[0]!r} is not in the phase.")
+    if equation.collider not in (None, "M", *species):
+        if skip_third_bodies:
+            return None
+        raise InputError(f"{label}: third body {equation.collider!r} is not in the phase; set "
+                         "skip-undeclared-third-bodies: true on the phase to leave such reactions out.")
+    return equation
+
+
 class _Reaction:
     """One reaction's numbers, in SI, before they are stacked into arrays."""
 
-    def __init__(self, where, index, node, species, units, concentration_scaled):
+    def __init__(self, where, index, node, eq: Equation, species, units, concentration_scaled, skip_third_bodies):
         self.where, self.index, self.equation = where, index, str(node["equation"])
         label = f"{where}: reaction {index} ({self.equation})"
-        try:
-            eq = parse_equation(self.equation)
-        except ValueError as error:
-            raise InputError(f"{label}: {error}.") from None
         kind = node.get("type")
         if kind is None:
             kind = "falloff" if eq.falloff else ("three-body" if eq.collider else "elementary")
-        if kind == "falloff" and "Tsang" in node:
-            kind = "falloff (Tsang)"
         misplaced = ("rate-constants", "data", "sticking-coefficient") if kind not in _PRESSURE_TYPES else ()
         if kind not in _SUPPORTED_TYPES or any(key in node for key in misplaced):
             raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: {_SUPPORTED}.")
         # Cantera ignores a '(+M)' on a Chebyshev reaction (deprecated) and refuses any other collider.
-        if kind in _PRESSURE_TYPES and not (eq.collider is None or (kind == "Chebyshev" and eq.collider == "M"
+        if kind in _GAS_ONLY_TYPES and not (eq.collider is None or (kind == "Chebyshev" and eq.collider == "M"
                                                                     and eq.falloff)):
             raise InputError(f"{label}: a {kind} reaction with a third body is not supported.")
-        for name in (*eq.reactants, *eq.products):
-            if name not in species:
-                raise InputError(f"{label}: species {name!r} is not in the phase.")
         self.kind = kind
         self.reactants, self.products, self.reversible = eq.reactants, eq.products, eq.reversible
         if node.get("orders") and self.reversible:
@@ -157,15 +140,22 @@ class _Reaction:
             read = plog_table if kind == "pressure-dependent-Arrhenius" else chebyshev_fit
             self.pressure_rate = read(label, node, order, units, concentration_scaled)
             self.a, self.b, self.t_a = 0.0, 0.0, 0.0  # unused: the rate is the table's or the fit's
+        elif kind == "Blowers-Masel":
+            self.a, self.b, self.t_a, self.bond_energy = blowers_masel(label, node.get("rate-constant"), order, units,
+                                                                       concentration_scaled)
         else:
-            rate_key = "high-P-rate-constant" if kind == "falloff" else "rate-constant"
+            # A chemically-activated rate tends to k_low at low pressure and k_high / [M] at high
+            # pressure, so its k_low has the reaction's order and its k_high one less; a falloff
+            # rate's k_high has the reaction's order and its k_low one more.
+            rate_key = "high-P-rate-constant" if kind in _FALLOFF_TYPES else "rate-constant"
             if rate_key not in node:
                 raise InputError(f"{label}: missing {rate_key!r}.")
-            self.a, self.b, self.t_a = arrhenius(label, node[rate_key], order, units, concentration_scaled)
+            high_order = order - 1 if kind == "chemically-activated" else order
+            self.a, self.b, self.t_a = arrhenius(label, node[rate_key], high_order, units, concentration_scaled)
         if self.a < 0 and not node.get("negative-A", False):
             raise InputError(f"{label}: A = {self.a} is negative; allowed only with negative-A: true.")
         self.efficiencies = None
-        if kind in ("three-body", "falloff"):
+        if kind in ("three-body", *_FALLOFF_TYPES):
             if eq.collider not in (None, "M"):
                 self.efficiencies = {name: 0.0 for name in species}
                 self.efficiencies[eq.collider] = 1.0
@@ -173,14 +163,21 @@ class _Reaction:
                 default = float(node.get("default-efficiency", 1.0))
                 self.efficiencies = {name: default for name in species}
                 for name, value in (node.get("efficiencies") or {}).items():
-                    if name not in species:
-                        raise InputError(f"{label}: efficiency for {name!r}, which is not in the phase.")
-                    self.efficiencies[name] = float(value)
-        if kind == "falloff":
-            self.low = arrhenius(label, node["low-P-rate-constant"], order + 1, units, concentration_scaled)
-            if "SRI" in node and "Troe" in node:
-                raise InputError(f"{label}: a falloff reaction has either Troe or SRI parameters, not both.")
-            self.troe, self.sri = troe_parameters(node.get("Troe")), sri_parameters(label, node.get("SRI"))
+                    if name in species:
+                        self.efficiencies[name] = float(value)
+                    elif not skip_third_bodies:
+                        raise InputError(f"{label}: efficiency for {name!r}, which is not in the phase; set "
+                                         "skip-undeclared-third-bodies: true on the phase to ignore it.")
+        if kind in _FALLOFF_TYPES:
+            if "low-P-rate-constant" not in node:
+                raise InputError(f"{label}: missing 'low-P-rate-constant'.")
+            self.low = arrhenius(label, node["low-P-rate-constant"], high_order + 1, units, concentration_scaled)
+            given = [key for key in ("Troe", "Tsang", "SRI") if key in node]
+            if len(given) > 1:
+                raise InputError(f"{label}: a {kind} reaction has one of Troe, Tsang or SRI parameters; got "
+                                 f"{' and '.join(given)}.")
+            self.centring = troe_parameters(node.get("Troe")) + tsang_parameters(label, node.get("Tsang"))
+            self.sri = sri_parameters(label, node.get("SRI"))
 
 
 
@@ -209,10 +206,8 @@ def _changed_species(net_stoichiometry: np.ndarray) -> np.ndarray:
 
 def read_mechanism(cls, path, phase=None):
     """Build `cls` (a `Mechanism`) from phase `phase` of the YAML file at `path`."""
-    path = Path(path)
-    document = _load(path)
-    units = UnitSystem(document.get("units"))
-    phase_node = _pick_phase(path, document, phase)
+    sources = Sources(load(Path(path)))
+    phase_node = _pick_phase(path, sources.main.document, phase)
     thermo_model = phase_node.get("thermo")
     if thermo_model not in _THERMO_MODELS:
         raise InputError(f"phase {phase_node['name']!r}: thermo = {thermo_model!r} is not supported; "
@@ -224,39 +219,36 @@ def read_mechanism(cls, path, phase=None):
         if basis not in _ACTIVITY_BASES:
             raise InputError(f"standard-concentration-basis = {basis!r}; allowed: {', '.join(_ACTIVITY_BASES)}.")
 
-    species_nodes = []
-    for section, names in _section_names(phase_node.get("species"), "species"):
-        nodes = {node["name"]: node for node in document.get(section) or []}
-        chosen = list(nodes) if names == "all" else list(names)
-        for name in chosen:
-            if name not in nodes:
-                raise InputError(f"species {name!r} of phase {phase_node['name']!r} is not in section {section!r}.")
-            species_nodes.append(nodes[name])
-    species = [str(node["name"]) for node in species_nodes]
-    thermo, volumes = _thermo(path, species_nodes, units, thermo_model)
+    species_nodes = phase_species(sources, phase_node)
+    species = [str(node["name"]) for _, node in species_nodes]
+    thermo, volumes = _thermo(species_nodes, thermo_model)
     reference_pressure = ONE_ATM
-    for node in species_nodes:
+    for source, node in species_nodes:
         if "reference-pressure" in node["thermo"]:
-            reference_pressure = units.convert("reference-pressure", node["thermo"]["reference-pressure"], "pressure")
+            reference_pressure = source.units.convert("reference-pressure", node["thermo"]["reference-pressure"],
+                                                      "pressure")
 
     reactions = []
-    if phase_node.get("kinetics") is not None:
-        for section, which in _section_names(phase_node.get("reactions"), "reactions"):
-            for node in document.get(section) or []:
-                if which == "declared":
-                    names = parse_equation(str(node["equation"]))
-                    if not set(names.reactants) | set(names.products) <= set(species):
-                        continue
-                reactions.append(_Reaction(_where(path, node), len(reactions), node, species, units,
-                                           basis != "unity"))
+    skip_third_bodies = bool(phase_node.get("skip-undeclared-third-bodies", False))
+    if phase_node.get("kinetics") not in (None, "none"):
+        for reference, which in section_names(phase_node.get("reactions"), "reactions"):
+            source, nodes = sources.section(reference)
+            for node in nodes:
+                where, index = source.where(node), len(reactions)
+                equation = _equation(f"{where}: reaction {index} ({node['equation']})", node, species,
+                                     which == "declared", skip_third_bodies)
+                if equation is not None:
+                    reactions.append(_Reaction(where, index, node, equation, species, source.units, basis != "unity",
+                                               skip_third_bodies))
     if thermo_model != "ideal-gas" and any(r.reversible for r in reactions):
         first = next(r for r in reactions if r.reversible)
         raise InputError(f"{first.where}: reaction {first.index} ({first.equation}) is reversible in an "
                          "ideal-condensed phase; write it as two irreversible reactions.")
     for r in reactions:
-        if thermo_model != "ideal-gas" and r.kind in _PRESSURE_TYPES:
+        if thermo_model != "ideal-gas" and r.kind in _GAS_ONLY_TYPES:
             raise InputError(f"{r.where}: reaction {r.index} ({r.equation}): a {r.kind} reaction needs the "
-                             "pressure of an ideal-gas phase; it is not supported in an ideal-condensed one.")
+                             "pressure or enthalpies of an ideal-gas phase; it is not supported in an "
+                             "ideal-condensed one.")
     n_s, n_r = len(species), len(reactions)
     reactant = np.zeros((n_r, n_s))
     product = np.zeros((n_r, n_s))
@@ -267,7 +259,8 @@ def read_mechanism(cls, path, phase=None):
             product[i, species.index(name)] = nu
     reversible = np.array([i for i, r in enumerate(reactions) if r.reversible], np.int32)
     three = [r for r in reactions if r.kind == "three-body"]
-    fall = [r for r in reactions if r.kind == "falloff"]
+    blowers = [r for r in reactions if r.kind == "Blowers-Masel"]
+    fall = [r for r in reactions if r.kind in _FALLOFF_TYPES]
 
     def efficiencies(rows):
         return jnp.asarray(np.array([[r.efficiencies[s] for s in species] for r in rows]).reshape(len(rows), n_s))
@@ -293,12 +286,15 @@ def read_mechanism(cls, path, phase=None):
         forward=_orders(species, [r.orders for r in reactions]),
         reverse=_orders(species, [reactions[i].products for i in reversible]),
         reversible_index=jnp.asarray(reversible),
+        blowers_masel=BlowersMasel(jnp.asarray(np.array([r.index for r in blowers], np.int32)),
+                                   column(blowers, lambda r: r.bond_energy)),
         three_body=ThirdBodies(jnp.asarray(np.array([r.index for r in three], np.int32)), efficiencies(three)),
         falloff=Falloff(
             jnp.asarray(np.array([r.index for r in fall], np.int32)),
             efficiencies(fall),
+            jnp.asarray(np.array([r.kind == "chemically-activated" for r in fall], bool)),
             *(column(fall, lambda r, j=j: r.low[j]) for j in range(3)),
-            *(column(fall, lambda r, j=j: r.troe[j]) for j in range(5)),
+            *(column(fall, lambda r, j=j: r.centring[j]) for j in range(7)),
             *(column(fall, lambda r, j=j: r.sri[j]) for j in range(5)),
         ),
         plog=stack_plog(*pressure_rated("pressure-dependent-Arrhenius")),

@@ -1,6 +1,7 @@
-"""PLOG, Chebyshev and SRI falloff against Cantera at pressures below, at, between and above the
-PLOG pressures, and their gradients (rate parameters and state) against central differences,
-finite at a tabulated pressure too."""
+"""PLOG, Chebyshev, SRI and Tsang falloff, chemically-activated and Blowers-Masel reactions against
+Cantera at pressures below, at, between and above the PLOG pressures (300-3000 K: every
+Blowers-Masel branch), and their gradients (rate parameters and state) against central
+differences, finite at a tabulated pressure too."""
 
 import re
 
@@ -38,7 +39,8 @@ def test_new_types_match_cantera_below_at_between_and_above_the_plog_pressures(m
     kinds = [reaction.reaction_type for reaction in gas.reactions()]
     # Cantera's forward_rate_constants leave out a three-body reaction's collider concentration.
     compared = np.array([kind != "three-body-Arrhenius" for kind in kinds])
-    assert {"pressure-dependent-Arrhenius", "Chebyshev", "falloff-SRI"} <= set(kinds)
+    assert {"pressure-dependent-Arrhenius", "Chebyshev", "falloff-SRI", "falloff-Tsang", "chemically-activated-Troe",
+            "Blowers-Masel"} <= set(kinds)
     rate_constants = eqx.filter_jit(lambda m, t, c: m._rate_constants(t, c, m.parameters)[0])
     rates = eqx.filter_jit(lambda m, t, c: m.rates_of_progress(t, c))
     worst = {"k": 0.0, "progress": 0.0, "net": 0.0}
@@ -65,7 +67,7 @@ def _concentrations(temperature, pressure, seed):
 
 
 def _with(mechanism, parts):
-    return eqx.tree_at(lambda m: (m.plog, m.chebyshev, m.falloff), mechanism, parts)
+    return eqx.tree_at(lambda m: (m.plog, m.chebyshev, m.falloff, m.blowers_masel), mechanism, parts)
 
 
 @pytest.mark.parametrize("pressure", [1e3, 3e4, 4e6, 3e8])
@@ -76,9 +78,11 @@ def test_gradient_wrt_new_rate_parameters_matches_central_differences(mechanism,
     # differences resolve every entry (net production rates of order 1e9 would drown the small ones).
     temperature = 1300.0
     concentrations = _concentrations(temperature, pressure, 1)
-    reactions = jnp.concatenate([mechanism.plog.index, mechanism.chebyshev.index, mechanism.falloff.index])
+    reactions = jnp.concatenate([mechanism.plog.index, mechanism.chebyshev.index, mechanism.falloff.index,
+                                 mechanism.blowers_masel.index])
     weights = jnp.asarray(np.random.default_rng(2).normal(size=reactions.size))
-    parts, indices = eqx.partition((mechanism.plog, mechanism.chebyshev, mechanism.falloff), eqx.is_inexact_array)
+    parts, indices = eqx.partition((mechanism.plog, mechanism.chebyshev, mechanism.falloff, mechanism.blowers_masel),
+                                   eqx.is_inexact_array)
 
     def objective(parts):
         changed = _with(mechanism, eqx.combine(parts, indices))
@@ -87,9 +91,10 @@ def test_gradient_wrt_new_rate_parameters_matches_central_differences(mechanism,
 
     _, adjoint = snapo_ode.value_and_sensitivities(objective, parts)
     bumped = snapo_ode.bump_and_revalue(objective, parts)
-    # 1/T_min and 1/T_max (~1e-3 K^-1) take an absolute step of 1e-6, too coarse: a finer one.
+    # 1/T_min and 1/T_max (~1e-3 K^-1) and the Tsang slope (~1e-4 K^-1) take an absolute step of
+    # 1e-6, too coarse: a finer one.
     fine = snapo_ode.bump_and_revalue(objective, parts, relative_step=1e-8)
-    ranges = lambda parts: (parts[1].inv_t_min, parts[1].inv_t_max)  # noqa: E731
+    ranges = lambda parts: (parts[1].inv_t_min, parts[1].inv_t_max, parts[2].tsang_slope)  # noqa: E731
     bumped = eqx.tree_at(ranges, bumped, ranges(fine))
     # Not compared: a padding PLOG term (A = 0), d ln k / dA = 1/k, which a bump of 1e-6 on
     # k ~ 1e10 cannot resolve, and an absent SRI term (c = 0), where a bump to c < 0 gives
@@ -161,6 +166,24 @@ _REFUSED = {
   temperature-range: [300.0, 2000.0]
   pressure-range: [0.01 atm, 100 atm]
   data: [[1.0, 0.5], [0.1]]""", "Chebyshev 'data' must be a non-empty rectangular"),
+    "Blowers-Masel with w below Ea0": ("A + B <=> C", """
+  type: Blowers-Masel
+  rate-constant: {A: 1.0e+13, b: 0.0, Ea0: 5000.0, w: 4000.0}""", "w = 4000.0 must exceed Ea0 = 5000.0"),
+    "Blowers-Masel without w": ("A + B <=> C", """
+  type: Blowers-Masel
+  rate-constant: {A: 1.0e+13, b: 0.0, Ea0: 5000.0}""", "needs rate-constant: {A: ..., b: ..., Ea0: ..., w: ...}"),
+    "Blowers-Masel with a third body": ("A + B + M <=> C + M", """
+  type: Blowers-Masel
+  rate-constant: {A: 1.0e+13, b: 0.0, Ea0: 500.0, w: 1.0e+05}""", "Blowers-Masel reaction with a third body"),
+    "Tsang and Troe": ("A + B (+M) <=> C (+M)", """
+  type: falloff
+  low-P-rate-constant: {A: 1.0e+18, b: -1.0, Ea: 0.0}
+  high-P-rate-constant: {A: 1.0e+13, b: 0.0, Ea: 0.0}
+  Troe: {A: 0.5, T3: 100.0, T1: 1000.0}
+  Tsang: {A: 0.5}""", "one of Troe, Tsang or SRI parameters; got Troe and Tsang"),
+    "chemically-activated without its low-pressure limit": ("A + B (+M) <=> C (+M)", """
+  type: chemically-activated
+  high-P-rate-constant: {A: 1.0e+13, b: 0.0, Ea: 0.0}""", "missing 'low-P-rate-constant'"),
 }
 
 

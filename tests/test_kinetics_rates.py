@@ -38,11 +38,12 @@ def test_reaction_types_mechanism_has_every_supported_type(mechanisms):
     gas = cantera.Solution(str(MECHANISM_PATHS["reaction_types"]))
     kinds = {reaction.reaction_type for reaction in gas.reactions()}
     assert kinds == {"Arrhenius", "three-body-Arrhenius", "falloff-Lindemann", "falloff-Troe", "falloff-SRI",
+                     "falloff-Tsang", "chemically-activated-Troe", "chemically-activated-Lindemann", "Blowers-Masel",
                      "pressure-dependent-Arrhenius", "Chebyshev"}
     mechanism = mechanisms["reaction_types"]
     assert float(mechanism.pre_exponential.min()) < 0  # the negative-A duplicate
     assert not bool(mechanism.thermo.is_nasa.all())  # constant-cp species
-    assert mechanism.n_reactions - mechanism.reversible_index.size == 3  # irreversible ones
+    assert mechanism.n_reactions - mechanism.reversible_index.size == 5  # irreversible ones
 
 
 def _state(mechanism, seed):
@@ -122,15 +123,16 @@ def test_concentration_jacobian_matches_autodiff_and_central_differences(mechani
 
 
 _UNSUPPORTED = {
-    "falloff (Tsang)": """
-  type: falloff
-  low-P-rate-constant: {A: 1.0e+18, b: -1.0, Ea: 0.0}
-  high-P-rate-constant: {A: 1.0e+13, b: 0.0, Ea: 0.0}
-  Tsang: {A: 0.5, B: 0.001}""",
-    "chemically-activated": """
-  type: chemically-activated
-  low-P-rate-constant: {A: 1.0e+18, b: -1.0, Ea: 0.0}
-  high-P-rate-constant: {A: 1.0e+13, b: 0.0, Ea: 0.0}""",
+    "linear-Burke": """
+  type: linear-Burke
+  colliders:
+  - name: M
+    type: falloff
+    low-P-rate-constant: {A: 1.0e+18, b: -1.0, Ea: 0.0}
+    high-P-rate-constant: {A: 1.0e+13, b: 0.0, Ea: 0.0}""",
+    "two-temperature-plasma": """
+  type: two-temperature-plasma
+  rate-constant: {A: 1.0e+13, b: 0.0, Ea-gas: 0.0, Ea-electron: 0.0}""",
 }
 
 
