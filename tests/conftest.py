@@ -5,7 +5,15 @@ Each pytest-xdist worker compiles into a cache directory of its own (`SNAPO_CACH
 set: the default cache's `tests/WORKER`), inherited by the `snapo` processes its tests start: two
 workers never read and write one cache at once (a worker died of a segmentation fault inside
 JAX's cache read in a CI run with a shared directory; not reproduced since). The tests of
-sharing one cache between processes make their own directories."""
+sharing one cache between processes make their own directories.
+
+The worker processes themselves write no persistent cache entries (`jax_enable_compilation_cache`
+off in-process; the `snapo` processes their tests start still use the worker's directory): a
+long-lived worker that had compiled a few hundred programs twice died of a segmentation fault
+inside XLA's executable serialisation (`put_executable_and_time`, pharma programs), and
+pytest-xdist then hung until CI's limit. Each program compiles once per worker either way, and
+JAX's in-memory caches serve repeats within the process; the cache itself is tested across
+processes (`test_core_cache.py`, `test_reliability.py`)."""
 
 import os
 
@@ -25,6 +33,7 @@ def pytest_configure(config):
     worker = workerinput["workerid"] if workerinput else "main"
     os.environ.setdefault("SNAPO_CACHE_DIR", str(snapo_ode.default_cache_dir().parent / "tests" / worker))
     snapo_ode.configure()
+    jax.config.update("jax_enable_compilation_cache", False)
 
 
 @pytest.fixture
