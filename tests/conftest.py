@@ -13,7 +13,13 @@ long-lived worker that had compiled a few hundred programs twice died of a segme
 inside XLA's executable serialisation (`put_executable_and_time`, pharma programs), and
 pytest-xdist then hung until CI's limit. Each program compiles once per worker either way, and
 JAX's in-memory caches serve repeats within the process; the cache itself is tested across
-processes (`test_core_cache.py`, `test_reliability.py`)."""
+processes (`test_core_cache.py`, `test_reliability.py`).
+
+After each test module the worker drops every compiled program (`jax.clear_caches()`): with the
+cache write gone, the same worker then died inside XLA's compile of a pharma program
+(`backend_compile_and_load`) after a few hundred programs, each time in the pharma design-space
+or accuracy tests, which pass in a process of their own. Modules rarely share programs, so few
+recompile."""
 
 import os
 
@@ -34,6 +40,12 @@ def pytest_configure(config):
     os.environ.setdefault("SNAPO_CACHE_DIR", str(snapo_ode.default_cache_dir().parent / "tests" / worker))
     snapo_ode.configure()
     jax.config.update("jax_enable_compilation_cache", False)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _fresh_programs_per_module():
+    yield
+    jax.clear_caches()
 
 
 @pytest.fixture
