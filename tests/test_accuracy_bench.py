@@ -1,6 +1,6 @@
 """`snapo bench accuracy --quick` regenerates the page, plots and CSVs, and what they show holds:
 errors fall as tolerances tighten, each reference agrees with its second method, the smooth-hard
-gap falls like 1/k, standard errors like 1/sqrt(paths). One quick run for the whole file."""
+gap falls like 1/k, standard errors like 1/sqrt(paths). One quick run per study for the whole file."""
 
 import json
 import math
@@ -38,8 +38,14 @@ def _line(panel, method):
     return [row for row in panel["rows"] if row["method"] == method]
 
 
-def _panels(bench):
-    return {name: panel for name, (_, panel) in bench[1].items()}
+def _panels(by_name):
+    """The panels of `run_studies`' result by name, without their study."""
+    return {name: panel for name, (_, panel) in by_name.items()}
+
+
+def _assert_errors_fall_tenfold(line):
+    assert len(line) >= 2 and all(row["y"] is not None for row in line)
+    assert line[-1]["y"] < line[0]["y"] / 10
 
 
 def test_the_page_plots_and_csvs_are_written(bench):
@@ -58,13 +64,11 @@ def test_the_page_plots_and_csvs_are_written(bench):
     ("stiff_pharma_chain", "Rodas4 + Tsit5 (default)"),
 ])
 def test_errors_fall_as_the_tolerance_tightens(bench, panel, method):
-    line = _line(_panels(bench)[panel], method)
-    assert len(line) >= 2 and all(row["y"] is not None for row in line)
-    assert line[-1]["y"] < line[0]["y"] / 10
+    _assert_errors_fall_tenfold(_line(_panels(bench[1])[panel], method))
 
 
 def test_every_stiff_panel_has_ours_and_a_peer_and_names_failures(bench):
-    panels = _panels(bench)
+    panels = _panels(bench[1])
     for name in ("stiff_robertson", "stiff_h2o2_ignition"):
         methods = {row["method"] for row in panels[name]["rows"] if row["y"] is not None}
         assert "Rodas4 (ours)" in methods and {"SciPy Radau (host)", "SciPy BDF (host)"} <= methods
@@ -75,7 +79,7 @@ def test_every_stiff_panel_has_ours_and_a_peer_and_names_failures(bench):
 
 
 def test_the_smooth_gap_falls_like_one_over_sharpness_and_the_adjoint_matches_bumps(bench):
-    panels = _panels(bench)
+    panels = _panels(bench[1])
     gap = panels["smoothing_gas_gap"]["rows"]
     assert all(a["y"] > b["y"] for a, b in zip(gap, gap[1:]))
     slope = math.log(gap[-1]["y"] / gap[0]["y"]) / math.log(gap[-1]["x"] / gap[0]["x"])
@@ -85,15 +89,13 @@ def test_the_smooth_gap_falls_like_one_over_sharpness_and_the_adjoint_matches_bu
 
 
 def test_standard_errors_fall_like_one_over_root_paths(bench):
-    rows = _line(_panels(bench)["monte_carlo_gas_se"], "hard value")
+    rows = _line(_panels(bench[1])["monte_carlo_gas_se"], "hard value")
     ratio = rows[0]["y"] / rows[-1]["y"]
     assert 0.5 * math.sqrt(rows[-1]["x"] / rows[0]["x"]) < ratio < 2 * math.sqrt(rows[-1]["x"] / rows[0]["x"])
 
 
 @pytest.mark.slow
 def test_gradient_errors_fall_as_the_tolerance_tightens(tmp_path):
-    panels = {name: panel for name, (_, panel) in run_studies(tmp_path, SLOW_STUDIES).items()}
+    panels = _panels(run_studies(tmp_path, SLOW_STUDIES))
     assert {"gradients_pharma_chain", "gradients_h2o2_ignition"} <= set(panels)
-    line = _line(panels["gradients_pharma_chain"], "reverse, a checkpoint a step")
-    assert len(line) >= 2 and all(row["y"] is not None for row in line)
-    assert line[-1]["y"] < line[0]["y"] / 10
+    _assert_errors_fall_tenfold(_line(panels["gradients_pharma_chain"], "reverse, a checkpoint a step"))
