@@ -9,7 +9,7 @@ Public names load lazily, on first use (`snapo_ode._lazy`).
 from ._lazy import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
-    "._accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "timed_point", "write_accuracy"),
+    "._accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "read_accuracy", "timed_point", "write_accuracy"),
     "._config": ("ConfigurationError", "configure", "default_cache_dir", "require_float64"),
     "._effects": ("EffectCatalogue", "Scene"),
     "._io": ("MANIFEST", "atomic_write_bytes", "atomic_write_json", "atomic_write_text", "check_replaceable_directory",

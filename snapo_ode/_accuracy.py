@@ -9,9 +9,12 @@ cost with each solver" is read off a table, not a plot.
 
 `write_accuracy` publishes, as one set: `OUT/accuracy.md` (the page), `OUT/accuracy/PANEL.png`
 and `OUT/accuracy/PANEL.csv` for each panel, and `OUT/bench_accuracy.json` (every point) last.
+The JSON holds all the page is made of: `read_accuracy` gives the studies back, so studies run
+apart (one process each) are published as one page.
 """
 
 import io
+import json
 import math
 import pathlib
 from collections.abc import Callable, Mapping, Sequence
@@ -189,9 +192,29 @@ def write_accuracy(out: str | pathlib.Path, studies: Sequence[AccuracyStudy], co
             files[out / "accuracy" / f"{panel.name}.csv"] = records_csv(panel_rows(panel))
     files[out / "accuracy.md"] = markdown(studies, command).encode("utf-8")
     payload = {"command": command, **(extra or {}), "studies": [
-        {"name": s.name, "title": s.title, "panels": [
+        {"name": s.name, "title": s.title, "text": s.text, "panels": [
             {"name": p.name, "title": p.title, "x_label": p.x_label, "y_label": p.y_label, "target": p.target,
+             "log_x": p.log_x, "log_y": p.log_y, "notes": p.notes,
              "rows": panel_rows(p), "cheapest": [c._asdict() for c in cheapest(p)], "missed": missed(p)}
             for p in s.panels]} for s in studies]}
     files[pathlib.Path(json_path) if json_path else out / "bench_accuracy.json"] = json_bytes(jsonable(payload))
     return publish(files)
+
+
+_ROW_FIELDS = ("method", "setting", "x", "y", "failure")
+
+
+def read_accuracy(json_path: str | pathlib.Path) -> list[AccuracyStudy]:
+    """The studies of a `bench_accuracy.json` written by `write_accuracy` (a missing x or y is
+    NaN; a row's other columns are its point's `extra`)."""
+    payload = json.loads(pathlib.Path(json_path).read_text())
+
+    def point(row: Mapping) -> Point:
+        return Point(row["method"], row["setting"], math.nan if row["x"] is None else row["x"],
+                     math.nan if row["y"] is None else row["y"],
+                     {key: value for key, value in row.items() if key not in _ROW_FIELDS}, row["failure"])
+
+    return [AccuracyStudy(study["name"], study["title"], [
+        Panel(panel["name"], panel["title"], panel["x_label"], panel["y_label"], [point(row) for row in panel["rows"]],
+              panel["target"], panel["log_x"], panel["log_y"], panel["notes"]) for panel in study["panels"]],
+        study["text"]) for study in payload["studies"]]

@@ -4,8 +4,8 @@ A plugin is a function `register(cli: CommandLine) -> None` that adds its verbs 
 `cli.command(name, help)`, `cli.bench(name, help)` and `cli.report(name, help)`; each returns an
 `argparse.ArgumentParser` whose `handler` default (`parser.set_defaults(handler=fn)`) is called
 with the parsed arguments. `cli.accuracy(name, run)` adds a study to `snapo bench accuracy`, which
-runs every registered study (`--only NAME`, `--quick`) and writes one page of them
-(`snapo_ode.write_accuracy`). The core itself never imports a domain.
+runs every registered study (`--only NAME`, `--quick`), each in a `snapo` process of its own
+unless `--in-process`, and writes one page of them (`snapo_ode.write_accuracy`). The core itself never imports a domain.
 
 Every verb, bench and report gets the same options from the core:
 
@@ -129,6 +129,9 @@ class CommandLine:
         accuracy.add_argument("--quick", action="store_true", help="few settings, small problems (a minute or two)")
         accuracy.add_argument("--only", action="append", metavar="NAME",
                               help="run only this study (repeatable); default all")
+        accuracy.add_argument("--in-process", action="store_true",
+                              help="run every study in this process (default: each in a snapo process of its own "
+                                   "when several run)")
         accuracy.set_defaults(handler=self._run_accuracy)
 
     def command(self, name: str, help: str, *, group: "argparse._SubParsersAction | None" = None,
@@ -167,11 +170,17 @@ class CommandLine:
         unknown = [name for name in chosen if name not in self._accuracy]
         if unknown:
             raise InputError(f"--only = {unknown[0]!r} is not a study; choose from {sorted(self._accuracy)}.")
-        studies = [study for name in chosen for study in self._accuracy[name](args)]
+        if args.in_process or len(chosen) == 1:
+            studies, failed = [study for name in chosen for study in self._accuracy[name](args)], {}
+        else:
+            studies, failed = _studies_apart(chosen, args)
         command = " ".join(args.command_line)
-        for path in write_accuracy(args.out, studies, command, {"quick": args.quick}, json_path=args.json):
+        extra = {"quick": args.quick, **({"failed_studies": failed} if failed else {})}
+        for path in write_accuracy(args.out, studies, command, extra, json_path=args.json):
             print(f"written: {path}")
-        return 0
+        for name, code in failed.items():
+            print(f"snapo: error: study {name!r} failed (exit {code}); the page holds the others", file=sys.stderr)
+        return next(iter(failed.values()), 0)
 
     def report(self, name: str, help: str) -> argparse.ArgumentParser:
         """A report: `snapo report NAME ...`, written into `--out` (default `snapo-out/NAME-report`)."""
@@ -184,6 +193,32 @@ class CommandLine:
                          help="fail at once (exit 2) if headless Chromium, which prints the PDF, is missing")
         parser.set_defaults(report_directory=True, pdf="auto")
         return parser
+
+
+def _studies_apart(chosen: Sequence[str], args: argparse.Namespace) -> tuple[list, dict[str, int]]:
+    """Run each study of `snapo bench accuracy` in a `snapo` process of its own (`--only NAME`)
+    and read its studies back; returns them and {name: exit code} of the studies that failed.
+    Apart, because one XLA process that compiled a few hundred of the pharma chain's programs has
+    crashed inside the compiler here (jaxlib 0.10.2), and a long bench should lose one study, not all."""
+    import subprocess
+    import tempfile
+
+    from ._accuracy import read_accuracy
+
+    studies, failed = [], {}
+    with tempfile.TemporaryDirectory(prefix="snapo-accuracy-") as scratch:
+        for name in chosen:
+            json_path = pathlib.Path(scratch) / f"{name}.json"
+            command = [sys.executable, "-m", "snapo_ode.cli", "bench", "accuracy", "--only", name,
+                       "--out", str(pathlib.Path(scratch) / name), "--json", str(json_path), "--seed", str(args.seed),
+                       *(["--quick"] if args.quick else []), *([] if args.progress else ["--no-progress"]),
+                       *(["--debug"] if args.debug else [])]
+            code = subprocess.run(command, stdout=subprocess.DEVNULL).returncode
+            if code == 0:
+                studies += read_accuracy(json_path)
+            else:
+                failed[name] = code if code > 0 else 1
+    return studies, failed
 
 
 def build(plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> CommandLine:

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from snapo_ode import AccuracyStudy, Panel, Point, cheapest
+from snapo_ode import AccuracyStudy, Panel, Point, cheapest, read_accuracy, write_accuracy
 from snapo_ode.cli import main
 
 
@@ -66,3 +66,19 @@ def test_bench_accuracy_refuses_an_unknown_study(tmp_path, capsys):
     code = main(["bench", "accuracy", "--only", "nope", "--out", str(tmp_path)], plugins=[register])
     assert code == 2
     assert "--only = 'nope'" in capsys.readouterr().err
+
+
+def test_the_json_gives_the_studies_back(tmp_path):
+    study = AccuracyStudy("toy", "Toy", [toy_panel()._replace(notes="Notes.", log_y=False)], text="Text.")
+    write_accuracy(tmp_path, [study], "snapo bench accuracy")
+    (back,) = read_accuracy(tmp_path / "bench_accuracy.json")
+    assert (back.name, back.title, back.text) == ("toy", "Toy", "Text.")
+    panel, original = back.panels[0], study.panels[0]
+    assert panel._replace(points=[]) == original._replace(points=[])
+    assert [p[:2] + p[4:] for p in panel.points] == [p[:2] + p[4:] for p in original.points]
+    finite = [(p.x, p.y) for p in panel.points if not p.failure]
+    assert finite == [(p.x, p.y) for p in original.points if not p.failure]
+    assert math.isnan(panel.points[-1].x) and panel.points[-1].failure == "did not converge"
+    # The page written from the studies read back is the page written from the originals.
+    write_accuracy(tmp_path / "again", [back], "snapo bench accuracy")
+    assert (tmp_path / "again" / "accuracy.md").read_text() == (tmp_path / "accuracy.md").read_text()
