@@ -11,6 +11,8 @@ from ._lazy import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "read_accuracy", "timed_point", "write_accuracy"),
     "._config": ("ConfigurationError", "configure", "default_cache_dir", "require_float64"),
+    "._distributed": ("SAMPLES", "check_divisible", "generate_sharded", "initialize", "is_writer", "mesh_of",
+                      "per_sample", "sample_mean", "sample_mesh", "spec", "start", "to_host", "use_cpu_devices"),
     "._effects": ("EffectCatalogue", "Scene"),
     "._io": ("MANIFEST", "atomic_write_bytes", "atomic_write_json", "atomic_write_text", "check_replaceable_directory",
              "json_bytes", "publish", "publish_directory", "sha256"),

@@ -23,7 +23,8 @@ Chromium is a warning: said at once on stderr, and in the report's JSON and HTML
 written with the CSV (exit 0), so a long computation is not lost for want of a browser.
 `publish_report(args, report)` writes a domain's `snapo_ode.Report` with these options.
 
-Verbs that train also get `--checkpoint` and `--resume` (`add_training_options`).
+Verbs that train also get `--checkpoint` and `--resume` (`add_training_options`); verbs whose
+samples split over devices get `--devices N` and the multi-process options (`add_device_options`).
 
 Exit codes: 0 success; 2 a user mistake (`InputError`: a one-line `snapo: error: ...` naming
 the field, the value and what is allowed); 3 a failed solve (`SolverFailed`, with advice).
@@ -107,6 +108,21 @@ def add_training_options(parser: argparse.ArgumentParser) -> None:
                         help="training checkpoint (default: beside the JSON, NAME.checkpoint.eqx)")
     parser.add_argument("--resume", action="store_true", help="continue an interrupted training from --checkpoint")
     parser.set_defaults(trains=True)
+
+
+def add_device_options(parser: argparse.ArgumentParser) -> None:
+    """Add `--devices N` and `--coordinator HOST:PORT --num-processes P --process-id I` to a verb
+    whose independent samples (paths, design points, conditions) split over devices; its handler
+    gets `args.mesh`, the samples mesh (`snapo_ode.sample_mesh`), or None on one device. Only
+    process 0 writes (`snapo_ode.is_writer`)."""
+    parser.add_argument("--devices", type=int, metavar="N",
+                        help="devices the samples split over (default: all; on CPU, the host split into N)")
+    parser.add_argument("--coordinator", metavar="HOST:PORT",
+                        help="multi-process run: process 0's address, with --num-processes and --process-id "
+                             "(detected on SLURM)")
+    parser.add_argument("--num-processes", type=int, metavar="P", help="multi-process run: the number of processes")
+    parser.add_argument("--process-id", type=int, metavar="I", help="multi-process run: this process, 0 to P-1")
+    parser.set_defaults(distributed=True)
 
 
 class CommandLine:
@@ -258,7 +274,16 @@ def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandL
 
     try:
         check_output_paths(args)
+        if getattr(args, "distributed", False):
+            from ._distributed import start
+
+            start(args.devices, args.coordinator, args.num_processes, args.process_id)
         configure()
+        if getattr(args, "distributed", False):
+            from ._distributed import sample_mesh
+
+            mesh = sample_mesh(args.devices)
+            args.mesh = mesh if mesh.size > 1 else None
         return int(handler(args) or 0)
     except (InputError, SolverFailed) as error:
         if args.debug:

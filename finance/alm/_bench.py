@@ -26,10 +26,11 @@ COLUMNS = (
 
 
 def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: int = 120,
-                 repeats: int = 3, seed: int = 0, progress: bool = True) -> list[dict]:
+                 repeats: int = 3, seed: int = 0, progress: bool = True, mesh=None) -> list[dict]:
     """One row per N in `counts`: median seconds of the three methods (bump and forward mode
     run once after the first call when N > 100, `repeats` times otherwise), the speedup of the
-    adjoint over the bump, its target N/4, and the largest relative differences."""
+    adjoint over the bump, its target N/4, and the largest relative differences. `mesh`: the
+    devices the paths split over."""
     check_count("paths", n_paths)
     check_count("repeats", repeats)
     for n in counts:
@@ -38,7 +39,7 @@ def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: i
     for n in tqdm(counts, desc="bench alm", disable=not progress):
         study = build_study(n, horizon_months=horizon_months)
         key = jax.random.key(seed)
-        shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2))
+        shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh)
         policy = NeuralRebalancing(study.market, key=jax.random.fold_in(key, 1))
         measured = measure_sensitivities(study, policy, shocks, repeats=repeats,
                                          baseline_repeats=repeats if n <= 100 else 1)

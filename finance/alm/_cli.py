@@ -3,18 +3,22 @@
 Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` stays quick.
 """
 
-from snapo_ode.cli import CommandLine, add_training_options
+from snapo_ode.cli import CommandLine, add_device_options, add_training_options
 
 
 def _alm(args) -> int:
+    from snapo_ode import is_writer
+
     from ._study import run_alm
 
     study = run_alm(args.risk_factors, n_paths=args.paths, horizon_months=args.horizon_months, bump=args.bump,
                     train_steps=args.train_steps, train_paths=args.train_paths, seed=args.seed,
-                    progress=args.progress, checkpoint_path=args.checkpoint, resume=args.resume)
-    study.write_json(args.json)
-    print(study.summary())
-    print(f"written: {args.json}")
+                    progress=args.progress and is_writer(), checkpoint_path=args.checkpoint, resume=args.resume,
+                    mesh=args.mesh)
+    if is_writer():
+        study.write_json(args.json)
+        print(study.summary())
+        print(f"written: {args.json}")
     return 0
 
 
@@ -22,7 +26,7 @@ def _bench(args) -> int:
     from ._bench import format_table, scaling_rows, write_scaling
 
     rows = scaling_rows(args.risk_factors, n_paths=args.paths, horizon_months=args.horizon_months,
-                        repeats=args.repeats, seed=args.seed, progress=args.progress)
+                        repeats=args.repeats, seed=args.seed, progress=args.progress, mesh=args.mesh)
     print(format_table(rows))
     print(f"written: {', '.join(map(str, write_scaling(rows, args.out)))}")
     return 0
@@ -35,8 +39,12 @@ def _report(args) -> int:
 
     settings = dict(n_paths=args.paths, horizon_months=args.horizon_months, train_steps=args.train_steps,
                     train_paths=args.train_paths, bump=not args.no_bump, seed=args.seed)
-    data = build_alm_report(args.risk_factors, progress=args.progress, checkpoint_path=args.checkpoint,
-                            resume=args.resume, **settings)
+    from snapo_ode import is_writer
+
+    data = build_alm_report(args.risk_factors, progress=args.progress and is_writer(), checkpoint_path=args.checkpoint,
+                            resume=args.resume, mesh=args.mesh, **settings)
+    if not is_writer():
+        return 0
     return publish_report(args, alm_report(data, report_provenance(args.risk_factors, settings, args.command_line)))
 
 
@@ -55,6 +63,7 @@ def register_alm(cli: CommandLine) -> None:
                         help="policy training steps (default 0: an untrained policy)")
     parser.add_argument("--train-paths", type=int, default=256, help="paths per training step")
     add_training_options(parser)
+    add_device_options(parser)
     parser.set_defaults(handler=_alm)
 
     bench = cli.bench("alm", "sensitivity cost against the number of risk factors: adjoint vs "
@@ -64,6 +73,7 @@ def register_alm(cli: CommandLine) -> None:
     bench.add_argument("--paths", type=int, default=128, help="paths (default 128)")
     bench.add_argument("--horizon-months", type=int, default=120, metavar="H")
     bench.add_argument("--repeats", type=int, default=3, help="timed runs per method")
+    add_device_options(bench)
     bench.set_defaults(handler=_bench)
 
     report = cli.report("alm", "the fund's risk report: funding ratio and objective of the trained policy against "
@@ -76,4 +86,5 @@ def register_alm(cli: CommandLine) -> None:
     report.add_argument("--train-paths", type=int, default=256, help="paths per training step")
     report.add_argument("--no-bump", action="store_true", help="skip the check of the adjoint against central bumps")
     add_training_options(report)
+    add_device_options(report)
     report.set_defaults(handler=_report)

@@ -10,12 +10,13 @@ import jax.numpy as jnp
 import numpy as np
 
 import snapo_ode
-from snapo_ode import Report, value_and_sensitivities
+from snapo_ode import Report, mesh_of, per_sample, sample_mean, to_host, value_and_sensitivities
 
 from ._assets import zero_rate
 from ._factors import factor_names, named_sensitivities
 from ._market import ASSETS, MONTH
 from ._model import simulate
+from ._sensitivities import PATH_SPECS
 from ._study import baselines, build_study, run_alm
 
 BASIS_POINT = 1e-4
@@ -27,12 +28,12 @@ FUNDING_RATIOS = np.linspace(0.7, 1.5, 33)  # of the policy map
 
 
 @eqx.filter_jit
-def _mean_funding_ratio_and_gradient(problem, policy, reported, fixed, shocks):
-    def mean_funding_ratio(reported):
+def _mean_funding_ratio_and_gradient(problem, policy, reported, fixed, shocks, mesh):
+    def mean_funding_ratio(reported, policy, shocks):
         outcome = simulate(problem, policy, {**fixed, **reported}, shocks, smooth_constraints=True)
         return jnp.mean(outcome.funding_ratio)
 
-    return value_and_sensitivities(mean_funding_ratio, reported)
+    return value_and_sensitivities(sample_mean(mean_funding_ratio, mesh, PATH_SPECS), reported, policy, shocks)
 
 
 def policy_map(study, policy) -> dict:
@@ -52,9 +53,11 @@ def terminal_funding_ratios(study, policies: dict, shocks) -> dict:
     """Each policy's funding ratio at the horizon on every path (exact constraints), as quantiles
     (1% to 99%) for the distribution figure."""
     factors = {**study.fixed, **study.reported}
-    run = eqx.filter_jit(lambda policy: simulate(study.problem, policy, factors, shocks, smooth_constraints=False))
+    run = eqx.filter_jit(per_sample(
+        lambda policy, factors, shocks: simulate(study.problem, policy, factors, shocks, smooth_constraints=False),
+        mesh_of(shocks), PATH_SPECS))
     levels = np.linspace(0.01, 0.99, 99)
-    return {name: np.quantile(np.asarray(run(policy).funding_ratio), levels).tolist()
+    return {name: np.quantile(to_host(run(policy, factors, shocks).funding_ratio), levels).tolist()
             for name, policy in policies.items()}
 
 
@@ -75,18 +78,19 @@ def ladder(objective: dict, funding_ratio: dict, names: dict, reported) -> dict:
 
 def build_alm_report(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int = 120,
                      train_steps: int = 300, train_paths: int = 256, bump: bool = True, seed: int = 0,
-                     progress: bool = True, checkpoint_path=None, resume: bool = False) -> dict:
-    """Every number of the ALM report, as the JSON document's data (see docs/alm.md)."""
+                     progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None) -> dict:
+    """Every number of the ALM report, as the JSON document's data (see docs/alm.md); `mesh`: the
+    devices the paths split over."""
     import time
 
     start = time.perf_counter()
     result = run_alm(n_risk_factors, n_paths=n_paths, horizon_months=horizon_months, train_steps=train_steps, bump=bump,
                      train_paths=train_paths, seed=seed, progress=progress, checkpoint_path=checkpoint_path,
-                     resume=resume)
+                     resume=resume, mesh=mesh)
     study = build_study(n_risk_factors, horizon_months=horizon_months)
     timing, (ratio, gradient) = snapo_ode.time_function(
         _mean_funding_ratio_and_gradient, study.problem, result.policy, study.reported, study.fixed, result.shocks,
-        repeats=3)
+        mesh_of(result.shocks), repeats=3)
     funding_sensitivities = named_sensitivities(gradient, study.layout, study.market)
     names = factor_names(study.layout, study.market)
     mixes = baselines(study)

@@ -14,12 +14,12 @@ import numpy as np
 
 import snapo_ode
 from snapo_ode import (
-    TrainResult, check_count, check_memory, compare_with_bumps, require_float64, time_function,
-    value_and_sensitivities)
+    TrainResult, check_count, check_divisible, check_memory, compare_with_bumps, generate_sharded, mesh_of,
+    per_sample, require_float64, time_function, to_host, value_and_sensitivities)
 
 from ._results import ALMStudy, Evaluation, SensitivityMeasurement
 from ._sensitivities import (
-    BUMP_RELATIVE_STEP, BUMP_ROWS_PER_CHUNK, FORWARD_ROWS_PER_CHUNK, chunk_size, objective_of_reported)
+    BUMP_RELATIVE_STEP, BUMP_ROWS_PER_CHUNK, FORWARD_ROWS_PER_CHUNK, PATH_SPECS, chunk_size, objective_of_reported)
 from ._factors import (
     FactorLayout,
     check_factors,
@@ -96,10 +96,18 @@ def build_study(n_risk_factors: int, *, horizon_months: int = 120, effects=None,
     return Study(problem, reported, fixed)
 
 
-def scenarios(study: Study, n_paths: int, key) -> jax.Array:
-    """Correlated shocks for `n_paths` paths over the study's horizon (common random numbers)."""
+def scenarios(study: Study, n_paths: int, key, mesh=None) -> jax.Array:
+    """Correlated shocks for `n_paths` paths over the study's horizon (common random numbers),
+    shape (months, paths, drivers). With a samples `mesh` (`snapo_ode.sample_mesh`) the paths are
+    split over its devices, each device drawing only its own: the same numbers as without it, and
+    every computation on them runs sharded (`n_paths` must be a multiple of the device count)."""
     check_count("paths", n_paths)
-    return correlated_shocks(study.market, n_paths, study.problem.horizon_months, key)
+    if mesh is None:
+        return correlated_shocks(study.market, n_paths, study.problem.horizon_months, key)
+    check_divisible("paths", n_paths, mesh)
+    draw = generate_sharded(lambda key: correlated_shocks(study.market, n_paths, study.problem.horizon_months, key),
+                            mesh, samples_axis=1, ndim=3)
+    return draw(key)
 
 
 def liability_duration(study: Study) -> float:
@@ -119,16 +127,19 @@ def baselines(study: Study) -> dict[str, AbstractRebalancing]:
 
 def train_policy(study: Study, *, steps: int, n_paths: int = 256, key=None,
                  learning_rate: float = 3e-3, progress: bool = True,
-                 checkpoint_path=None, resume: bool = False) -> tuple[NeuralRebalancing, TrainResult]:
-    """Train a `NeuralRebalancing` policy on the smooth objective, fresh paths every step.
+                 checkpoint_path=None, resume: bool = False, mesh=None) -> tuple[NeuralRebalancing, TrainResult]:
+    """Train a `NeuralRebalancing` policy on the smooth objective, fresh paths every step (split
+    over the devices of `mesh`, when given).
 
     Returns the best policy and the `TrainResult` (its history has the loss, -J, per step).
     """
     check_count("train_steps", steps)
     check_count("train_paths", n_paths)
+    if mesh is not None:
+        check_divisible("train_paths", n_paths, mesh)
     key = jax.random.key(0) if key is None else key
     initial = NeuralRebalancing(study.market, key=jax.random.fold_in(key, 0))
-    objective_fn = objective_of_reported(study.problem, study.fixed)
+    objective_fn = objective_of_reported(study.problem, study.fixed, mesh=mesh)
     reported = study.reported
 
     def loss(policy, step_key):
@@ -144,24 +155,27 @@ def train_policy(study: Study, *, steps: int, n_paths: int = 256, key=None,
 
 def funding_ratio_statistics(funding_ratio) -> dict[str, float]:
     """Mean, 5/50/95% quantiles and the probability of underfunding (< 1) at the horizon."""
-    values = np.asarray(funding_ratio)
+    values = to_host(funding_ratio)
     p05, p50, p95 = np.quantile(values, [0.05, 0.5, 0.95])
     return dict(mean=float(values.mean()), p05=float(p05), p50=float(p50), p95=float(p95),
                 probability_below_1=float(np.mean(values < 1.0)))
 
 
 @eqx.filter_jit
-def _hard_and_smooth(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, shocks):
-    return (simulate(problem, policy, factors, shocks, smooth_constraints=False),
-            simulate(problem, policy, factors, shocks, smooth_constraints=True))
+def _hard_and_smooth(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, shocks, mesh):
+    def both(policy, factors, shocks):
+        return (simulate(problem, policy, factors, shocks, smooth_constraints=False),
+                simulate(problem, policy, factors, shocks, smooth_constraints=True))
+
+    return per_sample(both, mesh, PATH_SPECS)(policy, factors, shocks)
 
 
 def evaluate(study: Study, policy: AbstractRebalancing, shocks) -> Evaluation:
-    """The policy evaluated hard and smooth on `shocks`.
+    """The policy evaluated hard and smooth on `shocks` (on their devices, when sharded).
 
     **Raises:** `FloatingPointError` if the objective is not finite.
     """
-    hard, soft = _hard_and_smooth(study.problem, policy, {**study.fixed, **study.reported}, shocks)
+    hard, soft = _hard_and_smooth(study.problem, policy, {**study.fixed, **study.reported}, shocks, mesh_of(shocks))
     objective, smooth = float(jnp.mean(hard.utility)), float(jnp.mean(soft.utility))
     if not np.all(np.isfinite([objective, smooth])):
         raise FloatingPointError(f"the ALM objective is not finite ({objective}, smooth {smooth}); check the inputs.")
@@ -179,7 +193,7 @@ def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, 
     **Raises:** `FloatingPointError` if the objective or a sensitivity is not finite.
     """
     n, n_paths = study.layout.n_risk_factors, shocks.shape[1]
-    fn = objective_of_reported(study.problem, study.fixed)
+    fn = objective_of_reported(study.problem, study.fixed, mesh=mesh_of(shocks))
     args = (study.reported, policy, shocks)
     comparison = None
     if baselines:
@@ -215,19 +229,24 @@ def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, 
 
 def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int = 120,
             bump: bool = False, train_steps: int = 0, train_paths: int = 256, seed: int = 0,
-            progress: bool = True, checkpoint_path=None, resume: bool = False) -> ALMStudy:
-    """The `snapo alm` study (`checkpoint_path`, `resume`: of the training, see `snapo_ode.train`)."""
+            progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None) -> ALMStudy:
+    """The `snapo alm` study (`checkpoint_path`, `resume`: of the training, see `snapo_ode.train`;
+    `mesh`: the devices the paths are split over, see `snapo_ode.sample_mesh`)."""
     check_count("paths", n_paths)
     check_count("train_steps", train_steps, low=0)
     check_count("train_paths", train_paths)
+    if mesh is not None:
+        check_divisible("paths", n_paths, mesh)
+        if train_steps:
+            check_divisible("train_paths", train_paths, mesh)
     study = build_study(n_risk_factors, horizon_months=horizon_months)
     check_size(study.layout, horizon_months, max(n_paths, train_paths))
     key = jax.random.key(seed)
-    shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2))
+    shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh)
     if train_steps:
         policy, result = train_policy(study, steps=train_steps, n_paths=train_paths,
                                       key=jax.random.fold_in(key, 1), progress=progress,
-                                      checkpoint_path=checkpoint_path, resume=resume)
+                                      checkpoint_path=checkpoint_path, resume=resume, mesh=mesh)
         train_seconds, train_compile = result.seconds, result.compile_seconds
     else:
         policy = NeuralRebalancing(study.market, key=jax.random.fold_in(jax.random.fold_in(key, 1), 0))

@@ -1,0 +1,109 @@
+"""Samples split over devices and processes give the single-device results: the core's sharded
+mean and its gradient against the analytic ones on 4 forced host devices, and `snapo alm` on 2
+and 4 devices and in two processes on loopback (CPU collectives) against one device, values and
+sensitivities to 1e-12 relative. Each run is a process of its own: the device count is fixed
+when JAX starts."""
+
+import json
+import socket
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+ALM = ["alm", "--risk-factors", "12", "--paths", "48", "--horizon-months", "6", "--bump", "--no-progress"]
+TIMING_KEYS = ("seconds", "speedup")
+"""Keys whose values are timings (they differ between any two runs)."""
+ERROR_KEYS = ("max_rel_diff",)
+"""Keys that measure the bumps' round-off against the adjoint: equal to its order, not its digits."""
+
+
+def _snapo(*argv):
+    return subprocess.Popen([sys.executable, "-m", "snapo_ode.cli", *argv], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _finish(process, timeout=600):
+    out, err = process.communicate(timeout=timeout)
+    assert process.returncode == 0, err[-3000:]
+    return out
+
+
+def _compare(reference, other, path=""):
+    """Every leaf of `other` equals `reference`'s: floats to 1e-12 relative, timings ignored,
+    error measures to their order."""
+    if isinstance(reference, dict):
+        assert set(reference) == set(other), path
+        for key in reference:
+            _compare(reference[key], other[key], f"{path}/{key}")
+    elif isinstance(reference, list):
+        assert len(reference) == len(other), path
+        for k, (a, b) in enumerate(zip(reference, other)):
+            _compare(a, b, f"{path}[{k}]")
+    elif isinstance(reference, float) and not any(key in path for key in TIMING_KEYS):
+        if any(key in path for key in ERROR_KEYS):
+            assert other == pytest.approx(reference, rel=0.5), path
+        else:
+            assert other == pytest.approx(reference, rel=1e-12, abs=1e-300), path
+    elif not isinstance(reference, float):
+        assert reference == other, path
+
+
+@pytest.fixture(scope="module")
+def one_device(tmp_path_factory):
+    out = tmp_path_factory.mktemp("one")
+    _finish(_snapo(*ALM, "--devices", "1", "--out", str(out)))
+    return json.loads((out / "alm.json").read_text())
+
+
+@pytest.mark.parametrize("devices", [2, 4])
+def test_alm_on_several_devices_equals_one_device(one_device, tmp_path, devices):
+    _finish(_snapo(*ALM, "--devices", str(devices), "--out", str(tmp_path)))
+    _compare(one_device, json.loads((tmp_path / "alm.json").read_text()))
+
+
+def test_alm_in_two_processes_equals_one_process_and_only_process_0_writes(one_device, tmp_path):
+    with socket.socket() as probe:  # a free port for the coordinator
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    runs = [_snapo(*ALM, "--out", str(tmp_path / f"process{i}"), "--coordinator", f"127.0.0.1:{port}",
+                   "--num-processes", "2", "--process-id", str(i)) for i in range(2)]
+    outputs = [_finish(run) for run in runs]
+    assert "written:" in outputs[0] and "written:" not in outputs[1]
+    assert not (tmp_path / "process1").exists()
+    _compare(one_device, json.loads((tmp_path / "process0" / "alm.json").read_text()))
+
+
+def test_paths_that_do_not_split_are_refused_before_any_compile(tmp_path):
+    run = subprocess.run([sys.executable, "-m", "snapo_ode.cli", *ALM[:3], "--paths", "47", "--devices", "2",
+                          "--out", str(tmp_path)], capture_output=True, text=True)
+    assert run.returncode == 2
+    assert "paths = 47 does not split over 2 devices; use a multiple of 2 (e.g. 46 or 48)" in run.stderr
+
+
+def test_the_sharded_mean_and_its_gradient_equal_the_analytic_ones():
+    """E[sin(a s)] over s ~ N(0, 1) draws split over 4 devices: the mean and d/da against the
+    same draws on the host (sum of a * cos(a s) * s / n), and the draws equal the unsharded ones."""
+    script = textwrap.dedent("""
+        import jax, jax.numpy as jnp, numpy as np
+        import snapo_ode
+        snapo_ode.use_cpu_devices(4)
+        snapo_ode.configure(cache=False)
+        mesh = snapo_ode.sample_mesh()
+        assert mesh.size == 4
+        draw = lambda key: jax.random.normal(key, (3, 400))
+        sharded = snapo_ode.generate_sharded(draw, mesh, samples_axis=1, ndim=2)(jax.random.key(7))
+        assert len(sharded.sharding.device_set) == 4
+        host = np.asarray(draw(jax.random.key(7)))
+        assert np.array_equal(np.asarray(sharded), host)
+        fn = lambda a, s: jnp.mean(jnp.sin(a * s[0]))
+        mean = snapo_ode.sample_mean(fn, snapo_ode.mesh_of(sharded), (snapo_ode.spec(), snapo_ode.spec(None, "samples")))
+        value, gradient = jax.jit(jax.value_and_grad(mean))(0.3, sharded)
+        s = host[0]
+        assert abs(float(value) - np.mean(np.sin(0.3 * s))) < 1e-15
+        assert abs(float(gradient) - np.mean(np.cos(0.3 * s) * s)) < 1e-15
+        print("ok")
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-3000:]
