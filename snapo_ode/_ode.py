@@ -20,6 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._distributed import to_host
 from ._jaxpr import equations
 from ._validation import InputError
 
@@ -41,7 +42,7 @@ def raise_if_failed(outputs, what: str = "the computation") -> None:
     """Raise `SolverFailed` with advice if any leaf of `outputs` (concrete arrays, after the
     compiled call returned) is not finite: the mark a failed check leaves under `call_checked`."""
     for leaf in jax.tree.leaves(outputs):
-        if not np.all(np.isfinite(np.asarray(leaf))):
+        if not np.all(np.isfinite(to_host(leaf))):
             raise SolverFailed(f"{what} gave non-finite values: an ODE solve failed. Either "
                                + " Or ".join(_FAILURE_MESSAGES))
 

@@ -107,3 +107,30 @@ def test_the_sharded_mean_and_its_gradient_equal_the_analytic_ones():
     """)
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-3000:]
+
+
+def test_the_pharma_monte_carlo_on_two_devices_equals_one_device():
+    """The design space's full-model draws (`shifted_cqas`), 7 rows split over 2 devices (padded
+    to 8) against the same rows on one device: the CQAs to 1e-12 relative."""
+    script = textwrap.dedent("""
+        import numpy as np
+        import snapo_ode
+        snapo_ode.use_cpu_devices(2)
+        snapo_ode.configure(cache=False)
+        from chemistry.pharma import PharmaChain, make_cpps, shifted_cqas
+        from chemistry.pharma._sensitivities import input_names
+        chain = PharmaChain()
+        inputs = chain.inputs(make_cpps())
+        names = input_names(chain)
+        columns = [k for k, name in enumerate(names) if name.startswith("log_multiplier[")]
+        shifts = np.zeros((7, len(names)))
+        shifts[:, columns] = 0.1 * np.random.default_rng(0).standard_normal((7, len(columns)))
+        one = shifted_cqas(chain, inputs, shifts)
+        two = shifted_cqas(chain, inputs, shifts, snapo_ode.sample_mesh(2))
+        assert one.shape == two.shape == (7, 5)
+        assert len(set(np.round(one[:, 0], 9))) == 7  # the draws move the assay
+        assert np.max(np.abs(two - one) / np.abs(one)) < 1e-12, np.max(np.abs(two - one) / np.abs(one))
+        print("ok")
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-3000:]

@@ -6,7 +6,7 @@ Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` sta
 import argparse
 import sys
 
-from snapo_ode.cli import add_training_options
+from snapo_ode.cli import add_device_options, add_training_options
 
 from ._ranges import CPP_RANGES
 
@@ -97,14 +97,17 @@ def run_train(args) -> int:
 def _space_options(args) -> dict:
     return dict(x=args.x, y=args.y, points=args.points, samples=args.samples, sigma=args.sigma, seed=args.seed,
                 level=args.level, verify_points=args.verify_points, surrogate_samples=args.surrogate_samples,
-                curvature_points=args.curvature_points)
+                curvature_points=args.curvature_points, mesh=args.mesh)
 
 
 def run_design_space(args) -> int:
     from ._design_space import design_space
 
+    from snapo_ode import is_writer
+
     chain, cpps = chain_from_args(args)
-    return _finish(design_space(chain, cpps, **_space_options(args)), args.json)
+    space = design_space(chain, cpps, **_space_options(args))
+    return _finish(space, args.json) if is_writer() else 0
 
 
 def run_report(args) -> int:
@@ -115,6 +118,10 @@ def run_report(args) -> int:
     chain, cpps = chain_from_args(args)
     data = build_report(chain, cpps, repeats=args.repeats, max_solver_error=args.max_solver_error,
                         check_warnings=lambda warnings: check_solver_errors(args, warnings), **_space_options(args))
+    from snapo_ode import is_writer
+
+    if not is_writer():
+        return 0
     return publish_report(args, pharma_report(data, report_provenance(chain, cpps, command=args.command_line)))
 
 
@@ -174,11 +181,13 @@ def register_pharma(cli) -> None:
                         "from a sensitivity-based surrogate checked by full Monte Carlo", group=pharma)
     add_chain_arguments(space)
     add_design_space_arguments(space)
+    add_device_options(space)
     space.set_defaults(handler=run_design_space)
     report = cli.report("pharma", "the ICH Q8 sensitivity and design-space report: report.html, report.pdf "
                         "(printed from it), CSV files, report.json")
     add_chain_arguments(report)
     add_design_space_arguments(report)
+    add_device_options(report)
     report.add_argument("--repeats", type=int, default=5, help="timed runs of the sensitivities")
     add_accuracy_arguments(report)
     report.set_defaults(handler=run_report)

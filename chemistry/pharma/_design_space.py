@@ -104,7 +104,7 @@ def default_uncertain(chain: PharmaChain) -> list[str]:
 def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y: str = "dryer_temperature",
                  points: int = 21, level: float = 0.95, sigma: float = 0.1, seed: int = 0,
                  surrogate_samples: int = 4096, verify_points: int = 9, samples: int = 1000,
-                 uncertain=None, curvature_points: int = 6) -> DesignSpace:
+                 uncertain=None, curvature_points: int = 6, mesh=None) -> DesignSpace:
     """The design space of CPPs `x` and `y` on a `points` x `points` grid over their PARs.
 
     **Arguments:** `level`: the probability the design space guarantees; `sigma`: the standard
@@ -113,7 +113,8 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     `surrogate_samples`: draws of the surrogate map (at least `samples`); `verify_points`: where
     the full model is run by Monte Carlo (the operating point first), `samples` draws each;
     `curvature_points`: the coarse grid (per CPP) of the surrogate's second-order term (0: first
-    order only).
+    order only); `mesh`: the devices the full model's Monte Carlo draws split over
+    (`snapo_ode.sample_mesh`; the grid's sensitivities run point by point on the first).
 
     **Returns:** a `DesignSpace`.
 
@@ -167,7 +168,7 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     chosen = choose_verification_points(probability, (io, jo), verify_points, level)
     start = time.perf_counter()
     verification = _verify(chain, cpps, x, y, xs, ys, chosen, draws[:samples], (values, slopes, hessians),
-                           probability, uncertain, scales)
+                           probability, uncertain, scales, mesh)
     nor = (ranges[x].nor, ranges[y].nor)
     inside = np.outer((xs >= nor[0][0] - 1e-9) & (xs <= nor[0][1] + 1e-9), (ys >= nor[1][0] - 1e-9) & (ys <= nor[1][1] + 1e-9))
     range_x = acceptable_range(xs, probability[:, jo], io, level, ranges[x])
@@ -190,7 +191,7 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
         seconds={"surrogate": surrogate_seconds, "monte_carlo": time.perf_counter() - start})
 
 
-def _verify(chain, cpps, x, y, xs, ys, chosen, draws, surrogate, probability, uncertain, scales) -> dict:
+def _verify(chain, cpps, x, y, xs, ys, chosen, draws, surrogate, probability, uncertain, scales, mesh) -> dict:
     """The full model at the `chosen` grid points on `draws` (one vmapped call), against the
     surrogate on the same draws and against the map."""
     inputs = chain.inputs(cpps)
@@ -204,7 +205,7 @@ def _verify(chain, cpps, x, y, xs, ys, chosen, draws, surrogate, probability, un
         shifts[p, :, column[x]] = xs[i] - float(getattr(cpps, x))
         shifts[p, :, column[y]] = ys[j] - float(getattr(cpps, y))
         shifts[p][:, columns] += offsets
-    full = shifted_cqas(chain, inputs, shifts.reshape(len(chosen) * n, -1)).reshape(len(chosen), n, -1)
+    full = shifted_cqas(chain, inputs, shifts.reshape(len(chosen) * n, -1), mesh).reshape(len(chosen), n, -1)
     rows = []
     for p, (i, j) in enumerate(chosen):
         passes = np.asarray(meets_specs(full[p])).astype(bool)

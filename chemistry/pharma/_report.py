@@ -58,7 +58,7 @@ def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 21, verify_poi
                  surrogate_samples: int = 4096, curvature_points: int = 6, level: float = 0.95, sigma: float = 0.1,
                  x: str = "r1_temperature", y: str = "dryer_temperature", seed: int = 0, repeats: int = 5,
                  mechanism_path=DEFAULT_MECHANISM, max_solver_error: float = MAX_SOLVER_ERROR,
-                 check_warnings=None) -> dict:
+                 check_warnings=None, mesh=None) -> dict:
     """Every number of the report, as the JSON document's data (see docs/pharma.md); solver
     errors against the tight reference above `max_solver_error` are warnings in it, handed to
     `check_warnings(warnings)` (which may raise) before the design space is computed."""
@@ -71,7 +71,7 @@ def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 21, verify_poi
     cantera = cantera_check(chain.with_solver(REFERENCE), cpps, inputs.physical, mechanism_path)
     space = design_space(chain, cpps, x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
                          surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
-                         curvature_points=curvature_points).to_json()
+                         curvature_points=curvature_points, mesh=mesh).to_json()
     space.update(grid_size=points, verification_count=len(space["verification"]["points"]),
                  uncertain_text=", ".join(space["uncertain"]))
     values = study["cpps"]

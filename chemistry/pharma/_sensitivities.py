@@ -6,8 +6,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import NamedSharding
 
-from snapo_ode import Jacobian, bump_steps, call_checked, choose_mode, flatten_inputs, jacobian
+from snapo_ode import (
+    SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, flatten_inputs, jacobian, per_sample, spec, to_host)
 
 from ._chain import PharmaChain
 from ._cqa import cqa_vector
@@ -96,13 +98,24 @@ def input_scales(inputs: ChainInputs) -> np.ndarray:
 
 
 @eqx.filter_jit
-def _shifted_cqas(chain: PharmaChain, inputs: ChainInputs, shifts):
+def _shifted_cqas(chain: PharmaChain, inputs: ChainInputs, shifts, mesh):
     flat, rebuild = flatten_inputs(inputs)
-    evaluate = cqa_function(chain)
-    return jax.vmap(lambda shift: evaluate(rebuild(flat + shift)))(shifts)
+
+    def rows(chain, flat, shifts):
+        evaluate = cqa_function(chain)
+        return jax.vmap(lambda shift: evaluate(rebuild(flat + shift)))(shifts)
+
+    return per_sample(rows, mesh, (spec(), spec(), spec(SAMPLES)))(chain, flat, shifts)
 
 
-def shifted_cqas(chain: PharmaChain, inputs: ChainInputs, shifts) -> np.ndarray:
+def shifted_cqas(chain: PharmaChain, inputs: ChainInputs, shifts, mesh=None) -> np.ndarray:
     """The CQAs at the flattened inputs + each row of `shifts` (shape (m, n)), in one vmapped,
-    cacheable call; shape (m, 5). Raises `SolverFailed` if any solve failed."""
-    return np.asarray(call_checked(_shifted_cqas, chain, inputs, jnp.asarray(shifts), what="the shifted chains"))
+    cacheable call; shape (m, 5). With a samples `mesh` the rows split over its devices (padded
+    with zero shifts to a multiple of the device count). Raises `SolverFailed` if any solve failed."""
+    shifts = np.asarray(shifts, dtype=float)
+    m = len(shifts)
+    if mesh is not None:
+        padded = np.concatenate([shifts, np.zeros(((-m) % mesh.size, shifts.shape[1]))])
+        shifts = jax.device_put(padded, NamedSharding(mesh, spec(SAMPLES)))
+    out = call_checked(_shifted_cqas, chain, inputs, jnp.asarray(shifts), mesh, what="the shifted chains")
+    return to_host(out)[:m]
