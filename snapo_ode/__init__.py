@@ -27,7 +27,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._report_model": ("Bullets", "Figure", "Heading", "Highlights", "Paragraph", "Report", "Section", "Table",
                        "Value", "format_value", "lookup"),
     "._report_html": ("render_html",),
-    "._resources": ("available_memory", "check_memory"),
+    "._resources": ("available_memory", "check_memory", "memory_mappings", "relieve_mappings"),
     "._results": ("Result", "field", "jsonable"),
     "._rollout": ("DiscreteStepper", "RolloutMethod", "rollout"),
     "._rosenbrock": ("Rodas4",),

@@ -29,3 +29,36 @@ def check_memory(what: str, needed: float, advice: str, *, limit: float | None =
     if needed > limit:
         raise InputError(f"{what} needs about {needed / GIB:.1f} GiB of memory (estimated), more than the "
                          f"{limit / GIB:.1f} GiB available; {advice}")
+
+
+MAPPINGS_FRACTION = 0.5
+"""Share of the kernel's mapping limit at which `relieve_mappings` drops the compiled programs."""
+
+
+def memory_mappings() -> tuple[int, int] | None:
+    """(this process's memory mappings, the kernel's limit `vm.max_map_count`), or None where
+    /proc does not tell (not Linux)."""
+    try:
+        with open("/proc/self/maps", "rb") as maps, open("/proc/sys/vm/max_map_count") as limit:
+            return maps.read().count(b"\n"), int(limit.read())
+    except OSError:
+        return None
+
+
+def relieve_mappings(fraction: float = MAPPINGS_FRACTION) -> bool:
+    """Drop JAX's compiled programs (`jax.clear_caches()`) once this process holds more than
+    `fraction` of the kernel's memory-mapping limit; returns whether it did.
+
+    Why: every program XLA compiles for the CPU stays mapped while JAX's caches hold it, in
+    ~1,700 mappings for one stiff ignition solve and its gradient (jaxlib 0.10.2, measured), and
+    nothing else frees it. A process that compiles a few dozen such programs (a bench across
+    tolerances, a test worker) reaches Linux's default limit of 65,530 mappings, and XLA then dies
+    in its compiler ("LLVM ERROR: Unable to allocate section memory", or a segmentation fault).
+    After the drop, a program used again is compiled again, or read from the persistent cache."""
+    counts = memory_mappings()
+    if counts is None or counts[0] <= fraction * counts[1]:
+        return False
+    import jax
+
+    jax.clear_caches()
+    return True

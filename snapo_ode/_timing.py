@@ -12,6 +12,8 @@ from typing import Any, NamedTuple
 
 import jax
 
+from ._resources import relieve_mappings
+
 
 class Timing(NamedTuple):
     """`first_call_seconds` includes tracing and compiling (or loading from the persistent
@@ -33,8 +35,11 @@ def _call(fn: Callable, args, kwargs) -> tuple[float, Any]:
 def time_function(fn: Callable, *args, repeats: int = 5, **kwargs) -> tuple[Timing, Any]:
     """Time a jitted `fn(*args, **kwargs)`: one warm-up call, then `repeats` timed calls.
 
-    Returns the `Timing` and the function's output.
+    Returns the `Timing` and the function's output. A bench compiles one program per setting:
+    before it compiles, old programs are dropped once the process nears the kernel's limit on
+    memory mappings (`snapo_ode.relieve_mappings`).
     """
+    relieve_mappings()
     first, out = _call(fn, args, kwargs)
     runs = tuple(_call(fn, args, kwargs)[0] for _ in range(max(repeats, 1)))
     median = statistics.median(runs)

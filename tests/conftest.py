@@ -15,11 +15,12 @@ pytest-xdist then hung until CI's limit. Each program compiles once per worker e
 JAX's in-memory caches serve repeats within the process; the cache itself is tested across
 processes (`test_core_cache.py`, `test_reliability.py`).
 
-After each test module the worker drops every compiled program (`jax.clear_caches()`): with the
-cache write gone, the same worker then died inside XLA's compile of a pharma program
-(`backend_compile_and_load`) after a few hundred programs, each time in the pharma design-space
-or accuracy tests, which pass in a process of their own. Modules rarely share programs, so few
-recompile."""
+After each test module the worker drops every compiled program (`jax.clear_caches()`), and
+before each test once it holds half the kernel's memory-mapping limit (`relieve_mappings`): the
+cause of those crashes, found later, is that every compiled CPU program stays mapped while JAX's
+caches hold it (~1,700 mappings for a stiff solve and its gradient), and a worker that compiled
+a few dozen reached Linux's 65,530 (`LLVM ERROR: Unable to allocate section memory` in one run).
+Modules rarely share programs, so few recompile."""
 
 import os
 
@@ -46,6 +47,11 @@ def pytest_configure(config):
 def _fresh_programs_per_module():
     yield
     jax.clear_caches()
+
+
+@pytest.fixture(autouse=True)
+def _mappings_below_the_limit():
+    snapo_ode.relieve_mappings()
 
 
 @pytest.fixture
