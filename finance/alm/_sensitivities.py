@@ -19,6 +19,11 @@ FORWARD_ROWS_PER_CHUNK = 16384
 # keeps truncation error near 1e-9 and round-off near 1e-10 relative (measured against the
 # adjoint; the cube-root-of-epsilon default truncates at 1e-6 on the volatilities).
 BUMP_RELATIVE_STEP = 1e-6
+PATHS_PER_CHUNK = 500
+"""Paths per pass of the objective on a device, one chunk after another when it divides the
+device's paths (`snapo_ode.sample_mean`): measured on a 2-core CPU at N = 100, 10,000 paths, 120
+months, one reverse pass took 3.3 s unchunked and 2.7 s in chunks of 500 on one device, 1.35 s
+on two."""
 PATH_SPECS = (spec(), spec(), spec(None, SAMPLES))
 """How three arguments, the last the shocks (months, paths, drivers), split over a samples mesh:
 the paths along the shocks' axis 1, the other two (factors, policy) replicated."""
@@ -33,7 +38,7 @@ def objective_of_reported(problem: ALMProblem, fixed: dict, *, smooth_constraint
         return objective(reported, policy, shocks, problem, fixed,
                          smooth_constraints=smooth_constraints)
 
-    return sample_mean(fn, mesh, PATH_SPECS)
+    return sample_mean(fn, mesh, PATH_SPECS, chunk=PATHS_PER_CHUNK)
 
 
 def chunk_size(n_revaluations: int, n_paths: int, rows: int) -> int | None:
