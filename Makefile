@@ -26,7 +26,8 @@ test-slow: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/snapo bench gas
 
-# Regenerates docs/accuracy.md, its plots and CSVs (about ten minutes on a 2-core machine).
+# Regenerates docs/accuracy.md, its plots and CSVs, each study in a process of its own (the full
+# run has not yet been timed to its end on a 2-core machine: well over half an hour).
 accuracy: $(STAMP)
 	$(BIN)/snapo bench accuracy --out docs
 
