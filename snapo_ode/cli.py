@@ -149,6 +149,17 @@ class CommandLine:
                               help="run every study in this process (default: each in a snapo process of its own "
                                    "when several run)")
         accuracy.set_defaults(handler=self._run_accuracy)
+        self._scaling: dict[str, Callable] = {}
+        scaling = self.bench("scaling", "strong and weak scaling of the sample-parallel workloads (ALM sensitivities, "
+                             "the pharma Monte Carlo) over device counts: time, speed-up, efficiency, memory per "
+                             "device, bytes communicated")
+        scaling.add_argument("--device-counts", default="1,2,4", help="comma-separated device counts (default 1,2,4), "
+                             "each run in a snapo process of its own")
+        scaling.add_argument("--only", action="append", metavar="NAME", help="run only this workload (repeatable)")
+        scaling.add_argument("--quick", action="store_true", help="small sizes (a test's)")
+        scaling.add_argument("--repeats", type=int, default=3, help="timed runs after the compile")
+        add_device_options(scaling)
+        scaling.set_defaults(handler=self._run_scaling)
 
     def command(self, name: str, help: str, *, group: "argparse._SubParsersAction | None" = None,
                 json_name: str | None = None) -> argparse.ArgumentParser:
@@ -198,6 +209,34 @@ class CommandLine:
             print(f"snapo: error: study {name!r} failed (exit {code}); the page holds the others", file=sys.stderr)
         return next(iter(failed.values()), 0)
 
+    def scaling(self, name: str, run: Callable[[argparse.Namespace], Sequence[dict]]) -> None:
+        """Add a workload to `snapo bench scaling`: `run(args)` measures it on `args.mesh` and
+        returns its rows (see `snapo_ode._scaling`)."""
+        self._scaling[name] = run
+
+    def _run_scaling(self, args: argparse.Namespace) -> int:
+        from ._scaling import COLUMNS, scaling_png, with_efficiency
+        from ._tables import format_table, write_table
+
+        chosen = args.only or list(self._scaling)
+        unknown = [name for name in chosen if name not in self._scaling]
+        if unknown:
+            raise InputError(f"--only = {unknown[0]!r} is not a workload; choose from {sorted(self._scaling)}.")
+        if args.devices is not None:  # one count, measured here
+            rows, failed = [row for name in chosen for row in self._scaling[name](args)], {}
+        else:
+            rows, failed = _scaling_apart(chosen, args)
+        rows = with_efficiency(rows)
+        print(format_table(rows, COLUMNS))
+        extra = {"command": " ".join(args.command_line), **({"failed_device_counts": failed} if failed else {})}
+        written = write_table(args.out, "bench_scaling", rows, extra,
+                              files={} if args.devices is not None else {"bench_scaling.png": scaling_png(rows)})
+        print(f"written: {', '.join(map(str, written))}")
+        for count, code in failed.items():
+            print(f"snapo: error: the run on {count} devices failed (exit {code}); the table holds the others",
+                  file=sys.stderr)
+        return next(iter(failed.values()), 0)
+
     def report(self, name: str, help: str) -> argparse.ArgumentParser:
         """A report: `snapo report NAME ...`, written into `--out` (default `snapo-out/NAME-report`)."""
         parser = self._reports.add_parser(name, help=help, description=help)
@@ -211,12 +250,24 @@ class CommandLine:
         return parser
 
 
+def _snapo_process(argv: Sequence[str]) -> int:
+    """Run `snapo ARGV` in a process of its own (its stdout dropped, its stderr shown); its exit code."""
+    import subprocess
+
+    code = subprocess.run([sys.executable, "-m", "snapo_ode.cli", *argv], stdout=subprocess.DEVNULL).returncode
+    return code if code >= 0 else 1
+
+
+def _child_options(args: argparse.Namespace) -> list[str]:
+    return ["--seed", str(args.seed), *(["--quick"] if args.quick else []),
+            *([] if args.progress else ["--no-progress"]), *(["--debug"] if args.debug else [])]
+
+
 def _studies_apart(chosen: Sequence[str], args: argparse.Namespace) -> tuple[list, dict[str, int]]:
     """Run each study of `snapo bench accuracy` in a `snapo` process of its own (`--only NAME`)
     and read its studies back; returns them and {name: exit code} of the studies that failed.
-    Apart, because one XLA process that compiled a few hundred of the pharma chain's programs has
-    crashed inside the compiler here (jaxlib 0.10.2), and a long bench should lose one study, not all."""
-    import subprocess
+    Apart, because each compiled program stays mapped in its process, and a long bench should
+    lose one study, not all (see `snapo_ode.relieve_mappings`)."""
     import tempfile
 
     from ._accuracy import read_accuracy
@@ -225,16 +276,43 @@ def _studies_apart(chosen: Sequence[str], args: argparse.Namespace) -> tuple[lis
     with tempfile.TemporaryDirectory(prefix="snapo-accuracy-") as scratch:
         for name in chosen:
             json_path = pathlib.Path(scratch) / f"{name}.json"
-            command = [sys.executable, "-m", "snapo_ode.cli", "bench", "accuracy", "--only", name,
-                       "--out", str(pathlib.Path(scratch) / name), "--json", str(json_path), "--seed", str(args.seed),
-                       *(["--quick"] if args.quick else []), *([] if args.progress else ["--no-progress"]),
-                       *(["--debug"] if args.debug else [])]
-            code = subprocess.run(command, stdout=subprocess.DEVNULL).returncode
+            code = _snapo_process(["bench", "accuracy", "--only", name, "--out", str(pathlib.Path(scratch) / name),
+                                   "--json", str(json_path), *_child_options(args)])
             if code == 0:
                 studies += read_accuracy(json_path)
             else:
-                failed[name] = code if code > 0 else 1
+                failed[name] = code
     return studies, failed
+
+
+def _scaling_apart(chosen: Sequence[str], args: argparse.Namespace) -> tuple[list[dict], dict[int, int]]:
+    """The rows of `snapo bench scaling` at each of `--device-counts`, each count measured in a
+    `snapo` process of its own (a process's device count is fixed when JAX starts); returns them
+    and {count: exit code} of the counts whose process failed.
+
+    **Raises:** `InputError` for a bad count, before any process starts."""
+    import json
+    import tempfile
+
+    try:
+        counts = [int(count) for count in args.device_counts.split(",")]
+    except ValueError:
+        counts = []
+    if not counts or min(counts) < 1:
+        raise InputError(f"--device-counts = {args.device_counts!r}; give positive integers separated by commas, "
+                         "e.g. 1,2,4.")
+    rows, failed = [], {}
+    with tempfile.TemporaryDirectory(prefix="snapo-scaling-") as scratch:
+        for count in counts:
+            out = pathlib.Path(scratch) / str(count)
+            code = _snapo_process(["bench", "scaling", "--devices", str(count), "--repeats", str(args.repeats),
+                                   *[flag for name in chosen for flag in ("--only", name)], "--out", str(out),
+                                   *_child_options(args)])
+            if code:
+                failed[count] = code
+            else:
+                rows += json.loads((out / "bench_scaling.json").read_text())["rows"]
+    return rows, failed
 
 
 def build(plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> CommandLine:

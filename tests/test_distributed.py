@@ -134,3 +134,23 @@ def test_the_pharma_monte_carlo_on_two_devices_equals_one_device():
     """)
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-3000:]
+
+
+def test_bench_scaling_merges_the_device_counts_and_rates_them(tmp_path):
+    """`snapo bench scaling --quick --only alm --device-counts 1,2`: one process per count, the
+    rows merged with speed-up and efficiency against one device, the same value on each count."""
+    run = subprocess.run([sys.executable, "-m", "snapo_ode.cli", "bench", "scaling", "--quick", "--only", "alm",
+                          "--device-counts", "1,2", "--repeats", "1", "--no-progress", "--out", str(tmp_path)],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-3000:]
+    rows = json.loads((tmp_path / "bench_scaling.json").read_text())["rows"]
+    assert [(row["scaling"], row["devices"]) for row in rows] == [("strong", 1), ("weak", 1), ("strong", 2), ("weak", 2)]
+    assert rows[2]["samples"] == rows[0]["samples"] and rows[3]["samples"] == 2 * rows[1]["samples"]
+    assert rows[2]["value"] == pytest.approx(rows[0]["value"], rel=1e-12)
+    for row in rows:
+        speedup = rows[row["scaling"] == "weak"]["seconds"] / row["seconds"] * (row["devices"] if row["scaling"] == "weak" else 1)
+        assert row["speedup"] == pytest.approx(speedup) and row["efficiency"] == pytest.approx(speedup / row["devices"])
+        assert row["temp_megabytes_per_device"] > 0
+    assert rows[2]["collective_bytes"] == 8 * 101 and rows[0]["collective_bytes"] == 0
+    assert (tmp_path / "bench_scaling.png").stat().st_size > 10_000
+    assert "| ALM sensitivities" in run.stdout

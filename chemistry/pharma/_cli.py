@@ -152,9 +152,16 @@ def gradient_accuracy(args):
     return gradient_study(args)
 
 
+def device_scaling(args):
+    from ._device_scaling import device_scaling
+
+    return device_scaling(args)
+
+
 def register_pharma(cli) -> None:
     """Add `snapo pharma sensitivities|train|design-space`, `snapo bench pharma`,
-    `snapo report pharma` and the "gradients" study of `snapo bench accuracy`."""
+    `snapo report pharma`, the "gradients" study of `snapo bench accuracy` and the "pharma"
+    workload of `snapo bench scaling`."""
     pharma = cli.group("pharma", "the 4-unit API chain: ICH Q8 sensitivities of the CQAs to the CPPs "
                        "and to every kinetic and physical parameter")
     sens = cli.command("sensitivities", "the 5x4 dCQA/dCPP matrix and every parameter sensitivity, checked "
@@ -198,3 +205,4 @@ def register_pharma(cli) -> None:
     bench.add_argument("--repeats", type=int, default=25)
     bench.set_defaults(handler=run_bench)
     cli.accuracy("gradients", gradient_accuracy)
+    cli.scaling("pharma", device_scaling)

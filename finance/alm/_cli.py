@@ -48,8 +48,15 @@ def _report(args) -> int:
     return publish_report(args, alm_report(data, report_provenance(args.risk_factors, settings, args.command_line)))
 
 
+def _device_scaling(args):
+    from ._device_scaling import device_scaling
+
+    return device_scaling(args)
+
+
 def register_alm(cli: CommandLine) -> None:
-    """Add `snapo alm`, `snapo bench alm` and `snapo report alm`."""
+    """Add `snapo alm`, `snapo bench alm`, `snapo report alm` and the "alm" workload of
+    `snapo bench scaling`."""
     parser = cli.command("alm", "pension-fund ALM: train the rebalancing policy and report the "
                                 "sensitivities to every risk factor (one reverse pass)")
     parser.add_argument("--risk-factors", type=int, default=100, metavar="N",
@@ -88,3 +95,4 @@ def register_alm(cli: CommandLine) -> None:
     add_training_options(report)
     add_device_options(report)
     report.set_defaults(handler=_report)
+    cli.scaling("alm", _device_scaling)
