@@ -157,7 +157,7 @@ class CommandLine:
                              "each run in a snapo process of its own")
         scaling.add_argument("--only", action="append", metavar="NAME", help="run only this workload (repeatable)")
         scaling.add_argument("--quick", action="store_true", help="small sizes (a test's)")
-        scaling.add_argument("--repeats", type=int, default=3, help="timed runs after the compile")
+        scaling.add_argument("--repeats", type=int, default=5, help="timed runs after the compile (default 5)")
         add_device_options(scaling)
         scaling.set_defaults(handler=self._run_scaling)
 
