@@ -154,3 +154,15 @@ def test_bench_scaling_merges_the_device_counts_and_rates_them(tmp_path):
     assert rows[2]["collective_bytes"] == 8 * 101 and rows[0]["collective_bytes"] == 0
     assert (tmp_path / "bench_scaling.png").stat().st_size > 10_000
     assert "| ALM sensitivities" in run.stdout
+
+
+def test_bench_scaling_refuses_bad_device_counts_before_any_process(tmp_path, capsys):
+    from snapo_ode.cli import main
+
+    def register(cli):
+        cli.scaling("toy", lambda args: [])
+
+    code = main(["bench", "scaling", "--device-counts", "1,0", "--out", str(tmp_path)], plugins=[register])
+    assert code == 2
+    assert "--device-counts = '1,0'; give positive integers" in capsys.readouterr().err
+    assert not (tmp_path / "bench_scaling.json").exists()
