@@ -109,16 +109,16 @@ def test_the_sharded_mean_and_its_gradient_equal_the_analytic_ones():
     assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-3000:]
 
 
-def test_the_pharma_monte_carlo_on_two_devices_equals_one_device():
+def test_the_pharma_design_space_on_two_devices_equals_one_device():
     """The design space's full-model draws (`shifted_cqas`), 7 rows split over 2 devices (padded
-    to 8) against the same rows on one device: the CQAs to 1e-12 relative."""
+    to 8), and its Jacobians at 3 grid points over 2 devices, against one device: to 1e-12."""
     script = textwrap.dedent("""
         import numpy as np
         import snapo_ode
         snapo_ode.use_cpu_devices(2)
         snapo_ode.configure(cache=False)
         from chemistry.pharma import PharmaChain, make_cpps, shifted_cqas
-        from chemistry.pharma._sensitivities import input_names
+        from chemistry.pharma._sensitivities import input_names, jacobians_function
         chain = PharmaChain()
         inputs = chain.inputs(make_cpps())
         names = input_names(chain)
@@ -130,6 +130,14 @@ def test_the_pharma_monte_carlo_on_two_devices_equals_one_device():
         assert one.shape == two.shape == (7, 5)
         assert len(set(np.round(one[:, 0], 9))) == 7  # the draws move the assay
         assert np.max(np.abs(two - one) / np.abs(one)) < 1e-12, np.max(np.abs(two - one) / np.abs(one))
+        # The design space's Jacobians at grid points: three points over two devices.
+        points = [chain.inputs(make_cpps(r1_temperature=t)) for t in (308.15, 313.15, 318.15)]
+        single = jacobians_function(chain, True, "reverse")(points)
+        spread = jacobians_function(chain, True, "reverse", snapo_ode.sample_mesh(2))(points)
+        for (v1, m1), (v2, m2) in zip(single, spread, strict=True):
+            assert np.max(np.abs(v2 - v1) / np.abs(v1)) < 1e-12
+            assert np.max(np.abs(m2 - m1)) <= 1e-12 * np.max(np.abs(m1))
+        assert not np.allclose(single[0][0], single[2][0])  # the points differ
         print("ok")
     """)
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)

@@ -32,7 +32,7 @@ from ._cqa import meets_specs, spec_margins
 from ._design_edges import acceptable_range, choose_verification_points, probability_se
 from ._parameters import CPPs
 from ._ranges import CPP_NAMES, CPP_RANGES, CQA_NAMES
-from ._sensitivities import input_names, jacobian_function, rate_names, shifted_cqas
+from ._sensitivities import input_names, jacobians_function, rate_names, shifted_cqas
 from ._surrogate import (
     curvature, grid_inputs, input_offsets, interpolate, log_scales, log_sensitivities, surrogate_cqas)
 
@@ -113,8 +113,8 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     `surrogate_samples`: draws of the surrogate map (at least `samples`); `verify_points`: where
     the full model is run by Monte Carlo (the operating point first), `samples` draws each;
     `curvature_points`: the coarse grid (per CPP) of the surrogate's second-order term (0: first
-    order only); `mesh`: the devices the full model's Monte Carlo draws split over
-    (`snapo_ode.sample_mesh`; the grid's sensitivities run point by point on the first).
+    order only); `mesh`: the devices the grid points, the curvature's Jacobians and the full
+    model's Monte Carlo draws split over (`snapo_ode.sample_mesh`).
 
     **Returns:** a `DesignSpace`.
 
@@ -141,18 +141,17 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     draws = sigma * np.asarray(jax.random.normal(jax.random.key(seed), (max(surrogate_samples, samples), len(uncertain))))
 
     start = time.perf_counter()
-    evaluate = jacobian_function(chain, True, "reverse")
-    values = np.zeros((points, points, len(CQA_NAMES)))
-    slopes = np.zeros((points, points, len(CQA_NAMES), len(uncertain)))
-    for i, vx in enumerate(xs):
-        for j, vy in enumerate(ys):
-            values[i, j], slopes[i, j] = log_sensitivities(evaluate, chain, grid_inputs(chain, cpps, x, y, vx, vy),
-                                                           uncertain, scales)
+    evaluate_many = jacobians_function(chain, True, "reverse", mesh)
+    grid = [grid_inputs(chain, cpps, x, y, vx, vy) for vx in xs for vy in ys]
+    pairs = [log_sensitivities(result, chain, inputs, uncertain, scales)
+             for inputs, result in zip(grid, evaluate_many(grid))]
+    values = np.array([value for value, _ in pairs]).reshape(points, points, len(CQA_NAMES))
+    slopes = np.array([slope for _, slope in pairs]).reshape(points, points, len(CQA_NAMES), len(uncertain))
     hessians = np.zeros(slopes.shape + (len(uncertain),))
     if curvature_points:
         cx, cy = np.linspace(*ranges[x].par, curvature_points), np.linspace(*ranges[y].par, curvature_points)
-        coarse = np.array([[curvature(evaluate, chain, grid_inputs(chain, cpps, x, y, vx, vy), uncertain, scales, sigma)
-                            for vy in cy] for vx in cx])
+        coarse = np.array([[curvature(evaluate_many, chain, grid_inputs(chain, cpps, x, y, vx, vy), uncertain, scales,
+                                      sigma) for vy in cy] for vx in cx])
         hessians = interpolate(cx, cy, coarse, xs, ys)
     by_cqa = np.zeros((points, points, len(CQA_NAMES)))
     probability = np.zeros((points, points))

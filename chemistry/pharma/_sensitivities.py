@@ -75,6 +75,31 @@ def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
                                        what="the chain's sensitivities")
 
 
+def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mesh=None):
+    """As `jacobian_function`, for many points at once: a function of a sequence of inputs ->
+    a list of (CQAs (5,), Jacobian (5, n)) as NumPy arrays. With a samples `mesh`, the points go
+    to this process's devices of it, one per device at a time, dispatched together (JAX runs
+    them at once); without, one after another. Not through `shard_map`: the reverse pass of
+    equinox's checkpointed while loop refuses to run inside it ("Closure-converted function
+    called with different dynamic arguments")."""
+    chain = chain.with_solver(chain.solver.replace(differentiation=mode))
+    devices = [None] if mesh is None else [d for d in mesh.devices.flat if d.process_index == jax.process_index()]
+
+    def on_devices(group):
+        return [_values_and_jacobian(chain, inputs if device is None else jax.device_put(inputs, device),
+                                     with_parameters, mode) for inputs, device in zip(group, devices)]
+
+    def evaluate_many(points):
+        results = []
+        for start in range(0, len(points), len(devices)):
+            group = call_checked(on_devices, list(points[start:start + len(devices)]),
+                                 what="the chain's sensitivities")
+            results += [(np.asarray(values), np.asarray(matrix)) for values, matrix in group]
+        return results
+
+    return evaluate_many
+
+
 def resolve_mode(mode: str, n_inputs: int) -> str:
     return choose_mode(len(CQA_NAMES), n_inputs) if mode == "auto" else mode
 

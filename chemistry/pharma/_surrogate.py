@@ -50,29 +50,35 @@ def grid_inputs(chain: PharmaChain, cpps: CPPs, x: str, y: str, vx: float, vy: f
     return chain.inputs(CPPs(**values))
 
 
-def log_sensitivities(evaluate, chain: PharmaChain, inputs, uncertain, scales) -> tuple[np.ndarray, np.ndarray]:
-    """(CQAs (5,), S (5, m)) at `inputs`, `evaluate` being `jacobian_function(chain, True, "reverse")`."""
-    cqas, matrix = evaluate(inputs)
+def log_sensitivities(result, chain: PharmaChain, inputs, uncertain, scales) -> tuple[np.ndarray, np.ndarray]:
+    """(CQAs (5,), S (5, m)) at `inputs` from `result` = (CQAs, Jacobian) there (one point of
+    `jacobians_function(chain, True, "reverse")`)."""
+    cqas, matrix = result
     values = np.asarray(cqas)
     jac = np.asarray(named_jacobian(chain, inputs, cqas, matrix, "reverse").columns(list(uncertain)))
     return values, jac * scales[None, :] / values[:, None]
 
 
-def curvature(evaluate, chain: PharmaChain, inputs, uncertain, scales, step: float) -> np.ndarray:
+def curvature(evaluate_many, chain: PharmaChain, inputs, uncertain, scales, step: float) -> np.ndarray:
     """H (5, m, m) at `inputs`: the one-sided difference of S over a step `step` in each ln k_j,
-    symmetrised."""
-    _, base = log_sensitivities(evaluate, chain, inputs, uncertain, scales)
+    symmetrised; the m + 1 Jacobians in one call of `evaluate_many` (see `jacobians_function`)."""
     flat, rebuild = flatten_inputs(inputs)
     flat = np.asarray(flat)
     column = {name: k for k, name in enumerate(input_names(chain))}
-    hessian = np.zeros((base.shape[0], len(uncertain), len(uncertain)))
+    points, shifted = [inputs], []
     for j, name in enumerate(uncertain):
         moved = flat.copy()
         moved[column[name]] += input_offsets([name], scales[j:j + 1], np.array([step]))[0]
         shifted_scales = scales.copy()
         if not is_log_input(name):
             shifted_scales[j] = scales[j] * np.exp(step)
-        _, after = log_sensitivities(evaluate, chain, rebuild(moved), uncertain, shifted_scales)
+        points.append(rebuild(moved))
+        shifted.append(shifted_scales)
+    results = evaluate_many(points)
+    _, base = log_sensitivities(results[0], chain, inputs, uncertain, scales)
+    hessian = np.zeros((base.shape[0], len(uncertain), len(uncertain)))
+    for j, (point, result, shifted_scales) in enumerate(zip(points[1:], results[1:], shifted)):
+        _, after = log_sensitivities(result, chain, point, uncertain, shifted_scales)
         hessian[:, :, j] = (after - base) / step
     return 0.5 * (hessian + np.swapaxes(hessian, 1, 2))
 
