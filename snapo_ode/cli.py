@@ -139,7 +139,7 @@ class CommandLine:
         report = self._verbs.add_parser("report", help="write a report (HTML, PDF, CSV, JSON) to a directory")
         self._reports = report.add_subparsers(dest="report", metavar="NAME")
         self._groups: dict[int, str] = {}
-        self._accuracy: dict[str, Callable] = {}
+        self._accuracy: dict[str, list[Callable]] = {}
         accuracy = self.bench("accuracy", "what accuracy costs in time: error against wall time per solver, "
                               "adjoint, smoothing sharpness and path count; writes OUT/accuracy.md, its plots and CSVs")
         accuracy.add_argument("--quick", action="store_true", help="few settings, small problems (a minute or two)")
@@ -187,8 +187,9 @@ class CommandLine:
 
     def accuracy(self, name: str, run: Callable[[argparse.Namespace], Sequence]) -> None:
         """Add a study to `snapo bench accuracy`: `run(args)` returns its `AccuracyStudy`s
-        (`args.quick` asks for the small version, `args.progress` for progress bars)."""
-        self._accuracy[name] = run
+        (`args.quick` asks for the small version, `args.progress` for progress bars). Several
+        domains may add to one name ("monte-carlo"): `--only NAME` runs them all, in order."""
+        self._accuracy.setdefault(name, []).append(run)
 
     def _run_accuracy(self, args: argparse.Namespace) -> int:
         from ._accuracy import write_accuracy
@@ -198,7 +199,7 @@ class CommandLine:
         if unknown:
             raise InputError(f"--only = {unknown[0]!r} is not a study; choose from {sorted(self._accuracy)}.")
         if args.in_process or len(chosen) == 1:
-            studies, failed = [study for name in chosen for study in self._accuracy[name](args)], {}
+            studies, failed = [study for name in chosen for run in self._accuracy[name] for study in run(args)], {}
         else:
             studies, failed = _studies_apart(chosen, args)
         command = " ".join(args.command_line)

@@ -51,7 +51,8 @@ def test_the_page_plots_and_csvs_are_written(bench):
         assert (out / "accuracy" / f"{name}.csv").read_text().startswith("method,setting,x,y")
         assert f"accuracy/{name}.png" in page
     assert {"stiff_robertson", "stiff_h2o2_ignition", "stiff_pharma_chain", "smoothing_gas_gap",
-            "smoothing_gas_gradient", "monte_carlo_gas_se"} <= set(panels)
+            "smoothing_gas_gradient", "monte_carlo_gas_se", "smoothing_alm_gap", "monte_carlo_alm_se",
+            "monte_carlo_alm_time"} <= set(panels)
 
 
 @pytest.mark.parametrize(("panel", "method"), [
@@ -83,10 +84,17 @@ def test_the_smooth_gap_falls_like_one_over_sharpness_and_the_adjoint_matches_bu
     assert max(row["y"] for row in smooth) < 1e-6
 
 
-def test_standard_errors_fall_like_one_over_root_paths(bench):
-    rows = _line(bench[1]["monte_carlo_gas_se"], "hard value")
+@pytest.mark.parametrize(("panel", "method"), [("monte_carlo_gas_se", "hard value"),
+                                                ("monte_carlo_alm_se", "objective J (exact constraints)")])
+def test_standard_errors_fall_like_one_over_root_paths(bench, panel, method):
+    rows = _line(bench[1][panel], method)
     ratio = rows[0]["y"] / rows[-1]["y"]
     assert 0.5 * math.sqrt(rows[-1]["x"] / rows[0]["x"]) < ratio < 2 * math.sqrt(rows[-1]["x"] / rows[0]["x"])
+
+
+def test_the_alm_smooth_gap_falls_as_the_floor_sharpens(bench):
+    gap = bench[1]["smoothing_alm_gap"]["rows"]
+    assert len(gap) >= 3 and all(a["y"] > b["y"] for a, b in zip(gap, gap[1:]))
 
 
 @pytest.mark.slow

@@ -48,6 +48,18 @@ def _report(args) -> int:
     return publish_report(args, alm_report(data, report_provenance(args.risk_factors, settings, args.command_line)))
 
 
+def _smoothing_accuracy(args):
+    from ._accuracy import smoothing_study
+
+    return smoothing_study(args)
+
+
+def _monte_carlo_accuracy(args):
+    from ._accuracy import monte_carlo_study
+
+    return monte_carlo_study(args)
+
+
 def _device_scaling(args):
     from ._device_scaling import device_scaling
 
@@ -55,8 +67,9 @@ def _device_scaling(args):
 
 
 def register_alm(cli: CommandLine) -> None:
-    """Add `snapo alm`, `snapo bench alm`, `snapo report alm` and the "alm" workload of
-    `snapo bench scaling`."""
+    """Add `snapo alm`, `snapo bench alm`, `snapo report alm`, the "alm" workload of
+    `snapo bench scaling` and ALM's panels of the "smoothing" and "monte-carlo" studies of
+    `snapo bench accuracy`."""
     parser = cli.command("alm", "pension-fund ALM: train the rebalancing policy and report the "
                                 "sensitivities to every risk factor (one reverse pass)")
     parser.add_argument("--risk-factors", type=int, default=100, metavar="N",
@@ -96,3 +109,5 @@ def register_alm(cli: CommandLine) -> None:
     add_device_options(report)
     report.set_defaults(handler=_report)
     cli.scaling("alm", _device_scaling)
+    cli.accuracy("smoothing", _smoothing_accuracy)
+    cli.accuracy("monte-carlo", _monte_carlo_accuracy)
