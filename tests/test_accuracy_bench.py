@@ -21,7 +21,7 @@ def run_studies(out, studies) -> dict:
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]
     payload = json.loads((out / "bench_accuracy.json").read_text())
-    assert [study["name"] for study in payload["studies"]] == list(studies)
+    assert list(dict.fromkeys(study["name"] for study in payload["studies"])) == list(studies)
     return {panel["name"]: panel for study in payload["studies"] for panel in study["panels"]}
 
 
