@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._distributed import to_host
-from ._resources import relieve_mappings
+from ._resources import relieve_mappings_after_compiles
 from ._jaxpr import equations
 from ._validation import InputError
 
@@ -109,7 +109,7 @@ def call_checked(fn, *args, what: str = "the computation", **kwargs):
     Traces made inside `call_checked` are kept apart from those made outside it (see
     `_runtime_checks_as_nan`), so a plain call of the same function still raises."""
     _check_equinox_error_mode()
-    relieve_mappings()
+    relieve_mappings_after_compiles()
     with _runtime_checks_as_nan():
         out = fn(*args, **kwargs)
     raise_if_failed(out, what)

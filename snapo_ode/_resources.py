@@ -33,6 +33,11 @@ def check_memory(what: str, needed: float, advice: str, *, limit: float | None =
 
 MAPPINGS_FRACTION = 0.5
 """Share of the kernel's mapping limit at which `relieve_mappings` drops the compiled programs."""
+COMPILE_EVENT = "/jax/core/compile/backend_compile_duration"
+"""JAX's monitoring event of one executable made, compiled or read from the persistent cache
+(`jax._src.dispatch.BACKEND_COMPILE_EVENT`): what adds mappings."""
+_compiled_since_check = True
+_listening = False
 
 
 def memory_mappings() -> tuple[int, int] | None:
@@ -62,3 +67,26 @@ def relieve_mappings(fraction: float = MAPPINGS_FRACTION) -> bool:
 
     jax.clear_caches()
     return True
+
+
+def relieve_mappings_after_compiles() -> bool:
+    """`relieve_mappings()` when JAX has made an executable (compiled, or read from the
+    persistent cache) since the last such call, else nothing: the form for hot paths (`call_checked`, `time_function`). Mappings grow only with
+    compiles, and reading /proc/self/maps costs ~25 ms at 20,000 mappings, which a check on every
+    call would add to every timed solve."""
+    global _compiled_since_check, _listening
+    if not _listening:
+        import jax
+
+        jax.monitoring.register_event_duration_secs_listener(_note_compile)
+        _listening = True
+    if not _compiled_since_check:
+        return False
+    _compiled_since_check = False
+    return relieve_mappings()
+
+
+def _note_compile(event: str, duration: float, **kwargs) -> None:
+    global _compiled_since_check
+    if event == COMPILE_EVENT:
+        _compiled_since_check = True

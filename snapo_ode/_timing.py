@@ -12,7 +12,7 @@ from typing import Any, NamedTuple
 
 import jax
 
-from ._resources import relieve_mappings
+from ._resources import relieve_mappings_after_compiles
 
 
 class Timing(NamedTuple):
@@ -37,9 +37,9 @@ def time_function(fn: Callable, *args, repeats: int = 5, **kwargs) -> tuple[Timi
 
     Returns the `Timing` and the function's output. A bench compiles one program per setting:
     before it compiles, old programs are dropped once the process nears the kernel's limit on
-    memory mappings (`snapo_ode.relieve_mappings`).
+    memory mappings (`snapo_ode.relieve_mappings`, checked after compiles).
     """
-    relieve_mappings()
+    relieve_mappings_after_compiles()
     first, out = _call(fn, args, kwargs)
     runs = tuple(_call(fn, args, kwargs)[0] for _ in range(max(repeats, 1)))
     median = statistics.median(runs)

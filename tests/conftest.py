@@ -16,7 +16,8 @@ JAX's in-memory caches serve repeats within the process; the cache itself is tes
 processes (`test_core_cache.py`, `test_reliability.py`).
 
 After each test module the worker drops every compiled program (`jax.clear_caches()`), and
-before each test once it holds half the kernel's memory-mapping limit (`relieve_mappings`): the
+before each test once it holds half the kernel's memory-mapping limit (`relieve_mappings`, checked
+when something compiled since): the
 cause of those crashes, found later, is that every compiled CPU program stays mapped while JAX's
 caches hold it (~1,700 mappings for a stiff solve and its gradient), and a worker that compiled
 a few dozen reached Linux's 65,530 (`LLVM ERROR: Unable to allocate section memory` in one run).
@@ -30,6 +31,7 @@ import jax  # noqa: E402
 import pytest  # noqa: E402
 
 import snapo_ode  # noqa: E402
+from snapo_ode._resources import relieve_mappings_after_compiles  # noqa: E402
 
 
 
@@ -51,7 +53,7 @@ def _fresh_programs_per_module():
 
 @pytest.fixture(autouse=True)
 def _mappings_below_the_limit():
-    snapo_ode.relieve_mappings()
+    relieve_mappings_after_compiles()
 
 
 @pytest.fixture
