@@ -4,15 +4,13 @@ of `args.mesh`. Strong scaling: 256 draws in all; weak: 64 per device. The devic
 nothing: each keeps its draws' CQAs, and the host gathers 40 bytes per draw."""
 
 import jax
-import jax.numpy as jnp
 import numpy as np
-from jax.sharding import NamedSharding
 
-from snapo_ode import SAMPLES, compiled_temp_bytes, spec, time_function
+from snapo_ode import compiled_temp_bytes, time_function
 
 from ._chain import PharmaChain
 from ._parameters import make_cpps
-from ._sensitivities import _shifted_cqas, input_names, shifted_cqas
+from ._sensitivities import _shifted_cqas, input_names, placed_shifts, shifted_cqas
 
 STRONG_DRAWS, WEAK_DRAWS_PER_DEVICE = 256, 64
 QUICK_STRONG_DRAWS, QUICK_WEAK_DRAWS_PER_DEVICE = 8, 4
@@ -35,10 +33,9 @@ def device_scaling(args) -> list[dict]:
         shifts = np.zeros((draws, len(names)))
         shifts[:, columns] = SIGMA * np.asarray(jax.random.normal(jax.random.key(args.seed), (draws, len(columns))))
         timing, _ = time_function(lambda shifts: shifted_cqas(chain, inputs, shifts, mesh), shifts, repeats=args.repeats)
-        placed = jnp.asarray(shifts) if mesh is None else jax.device_put(shifts, NamedSharding(mesh, spec(SAMPLES)))
         rows.append(dict(
             workload="pharma Monte Carlo (full chain per draw)", scaling=kind, devices=devices, samples=draws,
             seconds=timing.median_seconds, compile_seconds=timing.compile_seconds,
-            temp_megabytes_per_device=compiled_temp_bytes(_shifted_cqas, chain, inputs, placed, mesh) / 1e6, collective_bytes=0))
+            temp_megabytes_per_device=compiled_temp_bytes(_shifted_cqas, chain, inputs, placed_shifts(shifts, mesh), mesh) / 1e6, collective_bytes=0))
     return rows
 

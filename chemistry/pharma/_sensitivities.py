@@ -137,10 +137,15 @@ def shifted_cqas(chain: PharmaChain, inputs: ChainInputs, shifts, mesh=None) -> 
     """The CQAs at the flattened inputs + each row of `shifts` (shape (m, n)), in one vmapped,
     cacheable call; shape (m, 5). With a samples `mesh` the rows split over its devices (padded
     with zero shifts to a multiple of the device count). Raises `SolverFailed` if any solve failed."""
+    out = call_checked(_shifted_cqas, chain, inputs, placed_shifts(shifts, mesh), mesh, what="the shifted chains")
+    return to_host(out)[:len(shifts)]
+
+
+def placed_shifts(shifts, mesh=None) -> jax.Array:
+    """`shifts` (m, n) as `shifted_cqas` runs them: with a samples `mesh`, padded with zero rows
+    to a multiple of the device count and split over its devices."""
     shifts = np.asarray(shifts, dtype=float)
-    m = len(shifts)
-    if mesh is not None:
-        padded = np.concatenate([shifts, np.zeros(((-m) % mesh.size, shifts.shape[1]))])
-        shifts = jax.device_put(padded, NamedSharding(mesh, spec(SAMPLES)))
-    out = call_checked(_shifted_cqas, chain, inputs, jnp.asarray(shifts), mesh, what="the shifted chains")
-    return to_host(out)[:m]
+    if mesh is None:
+        return jnp.asarray(shifts)
+    padded = np.concatenate([shifts, np.zeros(((-len(shifts)) % mesh.size, shifts.shape[1]))])
+    return jax.device_put(padded, NamedSharding(mesh, spec(SAMPLES)))

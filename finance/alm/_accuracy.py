@@ -1,7 +1,6 @@
 """ALM in `snapo bench accuracy`: its panels of the "smoothing" and "monte-carlo" studies.
 
-- Smoothing: the floor penalty's sharpness k against the smooth-hard gap of the objective and
-  against the sensitivities' distance from central bumps of the hard objective.
+- Smoothing: the floor penalty's sharpness k against the smooth-hard gap of the objective.
 - Monte Carlo: paths against the relative standard error of the objective (per path, exact
   constraints) and of the 40 sensitivities (32 batches of paths, one reverse pass each), and
   against wall time.
