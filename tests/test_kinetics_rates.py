@@ -86,7 +86,8 @@ def test_gradient_wrt_state_is_exact_at_zero_concentration(mechanisms):
     assert snapo_ode.max_relative_difference(adjoint["T"], bumped["T"]) < 1e-6
 
 
-@pytest.mark.parametrize("name", ["h2o2", "gri30", "reaction_types", "pharma"])
+# reaction_types holds every reaction type gri30 has: gri30 (~55 s on CI) under `make test-slow`.
+@pytest.mark.parametrize("name", ["h2o2", pytest.param("gri30", marks=pytest.mark.slow), "reaction_types", "pharma"])
 def test_concentration_jacobian_matches_autodiff_and_central_differences(mechanisms, name):
     # The closed form (behind every concentration tangent of net_production_rates) against
     # forward-mode autodiff of the rate law itself, and against central differences; then the
