@@ -147,9 +147,15 @@ def split_reported(factors: dict, layout: FactorLayout) -> tuple[dict, dict]:
     return reported, fixed
 
 
+def tenor_label(tenor: float) -> str:
+    """A key tenor [years] as factor names and report axes show it, 3 significant digits
+    ("0.46y", "12.4y")."""
+    return f"{tenor:.3g}y"
+
+
 def factor_names(layout: FactorLayout, market: Market) -> dict[str, list[str]]:
     """The name of every entry of every group, in the order of `np.ravel(factors[group])`."""
-    tenor_names = [f"{t:.3g}y" for t in market.tenors]
+    tenor_names = [tenor_label(t) for t in market.tenors]
     equities = [f"equity_{e}" for e in range(layout.n_equities)]
     return dict(
         key_rates=[f"key_rate_{t}" for t in tenor_names],

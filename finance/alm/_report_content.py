@@ -6,6 +6,7 @@ import numpy as np
 
 from snapo_ode import Figure, Heading, Highlights, Paragraph, Section, Table, Value
 
+from ._factors import tenor_label
 from ._market import ASSETS
 
 V = Value
@@ -156,7 +157,7 @@ def _key_rate_figure(data: dict):
     import matplotlib.pyplot as plt
 
     rows = data["ladder"]["key_rates"]["rows"]
-    tenors = [f"{t:g}y" for t in data["key_tenors"]]
+    tenors = [tenor_label(t) for t in data["key_tenors"]]
     figure, axes = plt.subplots(1, 2, figsize=(8.0, 2.6))
     for axis, key, title in ((axes[0], "objective", "objective per +1 bp"),
                              (axes[1], "funding_ratio", "E[funding ratio] per basis point")):
