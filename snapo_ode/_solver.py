@@ -15,17 +15,18 @@ import optimistix as optx
 
 from ._host_solve import HOST_SOLVERS, host_solve
 from ._ode import diffeqsolve_checked
-from ._rosenbrock import Rodas4
+from ._rosenbrock import Rodas4, Rodas5
 from ._validation import InputError, check_choice, check_count, check_range
 
-SolverName = Literal["rodas4", "kvaerno5", "kvaerno4", "kvaerno3", "tsit5", "dopri5",
+SolverName = Literal["rodas4", "rodas5", "kvaerno5", "kvaerno4", "kvaerno3", "tsit5", "dopri5",
                      "cvode", "scipy-bdf", "scipy-radau", "scipy-lsoda"]
 RootFinderName = Literal["newton", "chord"]
 Differentiation = Literal["reverse", "forward", "backsolve"]
 
 _ESDIRK = {"kvaerno5": diffrax.Kvaerno5, "kvaerno4": diffrax.Kvaerno4, "kvaerno3": diffrax.Kvaerno3}
+_ROSENBROCK = {"rodas4": Rodas4, "rodas5": Rodas5}
 _EXPLICIT = {"tsit5": diffrax.Tsit5, "dopri5": diffrax.Dopri5}
-STIFF_SOLVERS: tuple[str, ...] = ("rodas4", *_ESDIRK)
+STIFF_SOLVERS: tuple[str, ...] = ("rodas4", "rodas5", *_ESDIRK)
 SOLVERS: tuple[str, ...] = get_args(SolverName)
 
 
@@ -115,8 +116,8 @@ class SolverSettings(eqx.Module):
         name = self.solver if stiff else self.nonstiff_solver
         if name in HOST_SOLVERS:
             raise InputError(f"solver = {name!r} runs on the host and has no Diffrax method: call solve().")
-        if name == "rodas4":
-            return Rodas4(jacobian=jacobian)
+        if name in _ROSENBROCK:
+            return _ROSENBROCK[name](jacobian=jacobian)
         if name in _EXPLICIT:
             return _EXPLICIT[name]()
         rtol = self.rtol if self.root_rtol is None else self.root_rtol
