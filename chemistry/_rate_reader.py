@@ -13,8 +13,25 @@ from ._pressure_rates import Chebyshev, Plog
 from ._units import UnitSystem, rate_constant_factor
 
 
+def _as_mapping(label: str, rate, keys: tuple[str, ...], least: int):
+    """A rate constant given as a list (`[A, b, Ea]`, which Cantera also reads) as the mapping of
+    `keys`; a mapping as it is.
+
+    **Raises:** `InputError` for a list of fewer than `least` or more than `len(keys)` numbers."""
+    if not isinstance(rate, (list, tuple)):
+        return rate
+    if not least <= len(rate) <= len(keys):
+        raise InputError(f"{label}: a rate constant written as a list is [{', '.join(keys)}], the first {least} "
+                         f"required; got {list(rate)!r}.")
+    return dict(zip(keys, rate))
+
+
 def arrhenius(label: str, rate, order: float, units: UnitSystem, concentration_scaled: bool):
-    """(A [SI], b [-], Ea/R [K]) of an Arrhenius mapping {A, b, Ea} of a rate of `order`."""
+    """(A [SI], b [-], Ea/R [K]) of an Arrhenius rate of `order`: a mapping {A, b, Ea} or a list
+    [A, b] or [A, b, Ea]."""
+    rate = _as_mapping(label, rate, ("A", "b", "Ea"), 2)
+    if not isinstance(rate, dict) or "A" not in rate:
+        raise InputError(f"{label}: a rate constant is {{A: ..., b: ..., Ea: ...}} or [A, b, Ea]; got {rate!r}.")
     a = rate["A"]
     if isinstance(a, str):
         a = units.convert(f"{label} A", a, "")
@@ -24,11 +41,12 @@ def arrhenius(label: str, rate, order: float, units: UnitSystem, concentration_s
 
 
 def blowers_masel(label: str, rate, order: float, units: UnitSystem, concentration_scaled: bool):
-    """(A [SI], b [-], E_a0/R [K], w/R [K]) of a Blowers-Masel `rate-constant` {A, b, Ea0, w}
-    (energies in the file's activation-energy units or their own).
+    """(A [SI], b [-], E_a0/R [K], w/R [K]) of a Blowers-Masel `rate-constant` {A, b, Ea0, w} or
+    [A, b, Ea0, w] (energies in the file's activation-energy units or their own).
 
     **Raises:** `InputError` without A or w, or unless w > Ea0 (the barrier's V_P divides by
     w - Ea0)."""
+    rate = _as_mapping(label, rate, ("A", "b", "Ea0", "w"), 4)
     if not isinstance(rate, dict) or "A" not in rate or "w" not in rate:
         raise InputError(f"{label}: a Blowers-Masel reaction needs rate-constant: {{A: ..., b: ..., Ea0: ..., "
                          f"w: ...}}; got {rate!r}.")
@@ -77,6 +95,10 @@ def plog_table(label: str, node, order: float, units: UnitSystem, concentration_
     in P, the expressions given at one pressure grouped (Cantera sums them)."""
     levels: dict[float, list] = {}
     for rate in node.get("rate-constants") or []:
+        if not isinstance(rate, dict):
+            # Cantera reads each entry as a mapping: [P, A, b, Ea] is refused there too.
+            raise InputError(f"{label}: each PLOG rate-constants entry is a mapping {{P: ..., A: ..., b: ..., Ea: ...}}"
+                             f"; got {rate!r}.")
         pressure = units.convert(f"{label} P", rate["P"], "pressure")
         if not pressure > 0:
             raise InputError(f"{label}: PLOG pressure P = {rate['P']!r} is not positive.")

@@ -1,7 +1,5 @@
 """Reading a Cantera YAML file into a `Mechanism`: species thermo, reactions, units."""
 
-from pathlib import Path
-
 import jax.numpy as jnp
 import numpy as np
 
@@ -11,9 +9,9 @@ from ._equation import Equation, parse_equation
 from ._rate_laws import BlowersMasel, Falloff, Orders, RateParameters, ThirdBodies
 from ._rate_reader import (arrhenius, blowers_masel, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev,
                            stack_plog, troe_parameters, tsang_parameters)
-from ._sources import Source, Sources, load, phase_species, section_names
-from ._thermo import SpeciesThermo
-from ._units import GAS_CONSTANT, ONE_ATM
+from ._sources import Sources, find_file, load, phase_species, section_names
+from ._thermo_reader import molar_volumes, species_thermo
+from ._units import ONE_ATM
 
 _THERMO_MODELS = ("ideal-gas", "ideal-condensed")
 _ACTIVITY_BASES = ("unity", "species-molar-volume", "solvent-molar-volume")
@@ -22,6 +20,12 @@ _GAS_ONLY_TYPES = (*_PRESSURE_TYPES, "Blowers-Masel")
 """Types that need an ideal gas's pressure or enthalpies, and take no third body."""
 _FALLOFF_TYPES = ("falloff", "chemically-activated")
 _SUPPORTED_TYPES = ("elementary", "three-body", *_FALLOFF_TYPES, *_GAS_ONLY_TYPES)
+_SURFACE_THERMO = ("ideal-surface", "coverage-dependent-surface", "edge")
+_SURFACE_KEYS = ("sticking-coefficient", "sticking-species", "Motz-Wise", "coverage-dependencies", "beta",
+                 "exchange-current-density-formulation")
+_SURFACE_TYPES = ("interface-Arrhenius", "sticking-Arrhenius", "interface-Blowers-Masel", "sticking-Blowers-Masel",
+                  "electrochemical")
+"""What makes a reaction an interface or edge reaction in Cantera's YAML: refused by name."""
 _SUPPORTED = ("elementary, three-body, falloff and chemically-activated (Lindemann, Troe, Tsang, SRI), "
               "pressure-dependent-Arrhenius (PLOG), Chebyshev, Blowers-Masel")
 
@@ -36,49 +40,6 @@ def _pick_phase(path, document, phase):
     if phase not in names:
         raise InputError(f"phase = {phase!r} is not in {path}; phases: {', '.join(names)}.")
     return phases[names.index(phase)]
-
-
-def _thermo(species_nodes: list[tuple[Source, dict]], thermo_model):
-    n = len(species_nodes)
-    is_nasa = np.zeros(n, bool)
-    t_mid = np.full(n, 1000.0)
-    low, high = np.zeros((n, 7)), np.zeros((n, 7))
-    t0, h0, s0, cp0 = np.full(n, 298.15), np.zeros(n), np.zeros(n), np.zeros(n)
-    volumes = np.zeros(n)
-    for k, (source, node) in enumerate(species_nodes):
-        name, units = node["name"], source.units
-        thermo = node.get("thermo")
-        model = thermo.get("model") if thermo else None
-        if model == "NASA7":
-            data = [list(map(float, d)) for d in thermo["data"]]
-            ranges = list(map(float, thermo["temperature-ranges"]))
-            if len(data) not in (1, 2) or len(ranges) != len(data) + 1:
-                raise InputError(f"{source.where(node)}: species {name!r}: NASA7 needs one or two sets of 7 "
-                                 f"coefficients and one more temperature-ranges entry; got {len(data)} and "
-                                 f"{len(ranges)}.")
-            is_nasa[k] = True
-            low[k] = data[0]
-            high[k] = data[-1]
-            t_mid[k] = ranges[1] if len(data) == 2 else ranges[-1]
-        elif model == "constant-cp":
-            is_nasa[k] = False
-            t0[k] = units.convert(f"species {name} T0", thermo.get("T0", 298.15), "temperature")
-            energy = "energy/quantity"
-            h0[k] = units.convert(f"species {name} h0", thermo.get("h0", 0.0), energy) / GAS_CONSTANT
-            s0[k] = units.convert(f"species {name} s0", thermo.get("s0", 0.0), energy + "/temperature") / GAS_CONSTANT
-            cp0[k] = units.convert(f"species {name} cp0", thermo.get("cp0", 0.0), energy + "/temperature") / GAS_CONSTANT
-        else:
-            raise InputError(f"{source.where(node)}: species {name!r} has thermo model {model!r}; "
-                             "supported: 'NASA7', 'constant-cp'.")
-        if thermo_model == "ideal-condensed":
-            eos = node.get("equation-of-state") or {}
-            if eos.get("model") != "constant-volume" or "molar-volume" not in eos:
-                raise InputError(f"{source.where(node)}: species {name!r} needs an equation-of-state "
-                                 "{model: constant-volume, molar-volume: ...} in an ideal-condensed phase.")
-            volumes[k] = units.convert(f"species {name} molar-volume", eos["molar-volume"], "length^3/quantity")
-    thermo = SpeciesThermo(jnp.asarray(is_nasa), jnp.asarray(t_mid), jnp.asarray(low), jnp.asarray(high),
-                           jnp.asarray(t0), jnp.asarray(h0), jnp.asarray(s0), jnp.asarray(cp0))
-    return thermo, volumes
 
 
 def _equation(label: str, node, species, declared_only: bool, skip_third_bodies: bool) -> Equation | None:
@@ -116,7 +77,11 @@ class _Reaction:
         kind = node.get("type")
         if kind is None:
             kind = "falloff" if eq.falloff else ("three-body" if eq.collider else "elementary")
-        misplaced = ("rate-constants", "data", "sticking-coefficient") if kind not in _PRESSURE_TYPES else ()
+        surface = [f"field {key!r}" for key in _SURFACE_KEYS if key in node] + [f"type {kind!r}"] * (kind in _SURFACE_TYPES)
+        if surface:
+            raise InputError(f"{label}: {surface[0]} belongs to a surface or edge reaction, which is not supported "
+                             "(only gas and bulk-phase kinetics are).")
+        misplaced = ("rate-constants", "data") if kind not in _PRESSURE_TYPES else ()
         if kind not in _SUPPORTED_TYPES or any(key in node for key in misplaced):
             raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: {_SUPPORTED}.")
         # Cantera ignores a '(+M)' on a Chebyshev reaction (deprecated) and refuses any other collider.
@@ -206,22 +171,28 @@ def _changed_species(net_stoichiometry: np.ndarray) -> np.ndarray:
 
 def read_mechanism(cls, path, phase=None):
     """Build `cls` (a `Mechanism`) from phase `phase` of the YAML file at `path`."""
-    sources = Sources(load(Path(path)))
+    sources = Sources(load(find_file(path)))
+    path = sources.main.path
     phase_node = _pick_phase(path, sources.main.document, phase)
     thermo_model = phase_node.get("thermo")
+    where = f"{sources.main.where(phase_node)}: phase {phase_node['name']!r}"
+    if thermo_model in _SURFACE_THERMO or phase_node.get("kinetics") in ("surface", "edge"):
+        raise InputError(f"{where}: a surface or edge phase (thermo {thermo_model!r}, kinetics "
+                         f"{phase_node.get('kinetics')!r}) is not supported; only bulk phases are.")
     if thermo_model not in _THERMO_MODELS:
-        raise InputError(f"phase {phase_node['name']!r}: thermo = {thermo_model!r} is not supported; "
+        raise InputError(f"{where}: thermo = {thermo_model!r} is not supported; "
                          f"supported: {', '.join(_THERMO_MODELS)}.")
     if thermo_model == "ideal-gas":
         basis = "concentration"
     else:
         basis = str(phase_node.get("standard-concentration-basis", "unity"))
         if basis not in _ACTIVITY_BASES:
-            raise InputError(f"standard-concentration-basis = {basis!r}; allowed: {', '.join(_ACTIVITY_BASES)}.")
+            raise InputError(f"{where}: standard-concentration-basis = {basis!r}; allowed: {', '.join(_ACTIVITY_BASES)}.")
 
     species_nodes = phase_species(sources, phase_node)
     species = [str(node["name"]) for _, node in species_nodes]
-    thermo, volumes = _thermo(species_nodes, thermo_model)
+    thermo = species_thermo(species_nodes)
+    volumes = molar_volumes(species_nodes) if thermo_model == "ideal-condensed" else np.zeros(len(species))
     reference_pressure = ONE_ATM
     for source, node in species_nodes:
         if "reference-pressure" in node["thermo"]:

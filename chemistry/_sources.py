@@ -46,19 +46,39 @@ def load(path: Path) -> Source:
     return Source(path, document, UnitSystem(document.get("units")))
 
 
+def _data_directories() -> list[Path]:
+    import cantera
+
+    return [Path(directory) for directory in cantera.get_data_directories()]
+
+
+def find_file(name: str | Path) -> Path:
+    """Where `cantera.Solution(name)` finds the file `name`: as given if it is a file there (a
+    path relative to the working directory, or absolute), else a relative name in Cantera's data
+    directories (`gri30.yaml`, `example_data/ohn.yaml`).
+
+    **Raises:** `InputError` if it is in neither."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    if not path.is_absolute():
+        for directory in _data_directories():
+            if (directory / path).is_file():
+                return directory / path
+    raise InputError(f"mechanism path {str(name)!r} is not a file, nor one in Cantera's data directories "
+                     f"({', '.join(map(str, _data_directories()))}).")
+
+
 def _included_file(parent: Path, name: str) -> Path:
     """Where Cantera finds the file `name` that `parent` refers to: next to `parent`, else in
     Cantera's data directories."""
-    candidates = [parent.parent / name]
-    if not candidates[0].is_file():
-        import cantera
-
-        candidates += [Path(directory) / name for directory in cantera.get_data_directories()]
-    for candidate in candidates:
-        if candidate.is_file():
-            return candidate
-    raise InputError(f"{parent}: the file {name!r} it refers to is neither next to it nor in Cantera's data "
-                     f"directories.")
+    if (parent.parent / name).is_file():
+        return parent.parent / name
+    try:
+        return find_file(name)
+    except InputError:
+        raise InputError(f"{parent}: the file {name!r} it refers to is neither next to it nor in Cantera's data "
+                         f"directories.") from None
 
 
 class Sources:

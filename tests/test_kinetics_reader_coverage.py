@@ -1,0 +1,222 @@
+"""What the mechanism reader reads beyond the basic reaction types, each against Cantera: NASA9
+thermo (alone and mixed with NASA7), rate constants written as lists, bare file names found on
+Cantera's data path, and constant-volume species given by density or molar density; and what it
+refuses (surface and edge features, malformed YAML), naming the file, line, reaction and feature."""
+
+import re
+import textwrap
+
+import cantera
+import jax
+import numpy as np
+import pytest
+
+import snapo_ode
+from chemistry import MECHANISMS, Mechanism, compare_rates
+from chemistry._crosscheck import compare_thermo
+from chemistry._sweep import cantera_data_directory
+from snapo_ode import InputError
+
+snapo_ode.configure()
+DATA = cantera_data_directory()
+
+MIXED = textwrap.dedent("""\
+    phases:
+    - name: gas
+      thermo: ideal-gas
+      species: [{airNASA9.yaml/species: [O, O2, N, NO, N2]}, {air.yaml/species: [NO2, N2O, AR]}]
+      kinetics: gas
+      reactions: [{air.yaml/reactions: declared-species}]
+    """)
+"""NASA9 species (airNASA9) with NASA7 ones (air), and air.yaml's eight reactions among them."""
+
+
+def _write(tmp_path, text, name="phase.yaml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _standard_state(solution, temperature):
+    solution.TP = temperature, solution.reference_pressure
+    return solution.standard_cp_R, solution.standard_enthalpies_RT, solution.standard_entropies_R
+
+
+@pytest.mark.parametrize("file", ["airNASA9.yaml", "mixed"])
+def test_nasa9_thermo_matches_cantera_in_every_range_and_at_the_boundaries(tmp_path, file):
+    path = DATA / file if file != "mixed" else _write(tmp_path, MIXED)
+    mechanism = Mechanism.from_yaml(path)
+    solution = cantera.Solution(str(path))
+    assert mechanism.species_names == tuple(solution.species_names)
+    # airNASA9's ranges are 200-1000-6000-20000 K: below, at and either side of each boundary,
+    # inside each range and above the last (Cantera extrapolates the last range).
+    temperatures = [150.0, 200.0, 700.0, 1000.0 * (1 - 1e-12), 1000.0, 1000.0 * (1 + 1e-12), 3000.0,
+                    6000.0, 6000.0 * (1 + 1e-12), 12000.0, 20000.0, 25000.0]
+    thermo = mechanism.thermo
+    for temperature in temperatures:
+        ours = (thermo.cp_r(temperature), thermo.h_rt(temperature), thermo.s_r(temperature))
+        for value, reference in zip(ours, _standard_state(solution, temperature)):
+            np.testing.assert_allclose(np.asarray(value), reference, rtol=1e-12, atol=0, err_msg=f"T = {temperature}")
+    assert compare_thermo(mechanism, path, n_states=50, temperature=(200.0, 20000.0)) <= 1e-12
+
+
+def test_mixed_nasa9_and_nasa7_rates_match_cantera(tmp_path):
+    path = _write(tmp_path, MIXED)
+    mechanism = Mechanism.from_yaml(path)
+    assert mechanism.n_reactions == cantera.Solution(str(path)).n_reactions == 8
+    # 300-6000 K spans NASA7's and NASA9's range boundaries (1000 K) and NASA9's second range.
+    rates = compare_rates(mechanism, path, n_states=40, temperature=(300.0, 6000.0), pressure=(1e3, 1e7))
+    assert max(rates.rates_of_progress, rates.net_production) <= 1e-10, rates
+    assert rates.n_compared > 0
+
+
+def test_a_mechanism_without_nasa9_species_traces_no_nasa9_code(tmp_path):
+    nasa7 = Mechanism.from_yaml(DATA / "h2o2.yaml")
+    mixed = Mechanism.from_yaml(_write(tmp_path, MIXED))
+    assert nasa7.thermo.nasa9 is None and mixed.thermo.nasa9 is not None
+
+    def traced(mechanism):
+        return str(jax.make_jaxpr(lambda t: mechanism.thermo.g_rt(t) + mechanism.thermo.cp_r(t))(1500.0))
+
+    # NASA9 evaluation picks each species' range with a gather and writes its species with a
+    # scatter: neither is in a NASA7 mechanism's thermo.
+    assert "gather" in traced(mixed) and "scatter" in traced(mixed)
+    assert "gather" not in traced(nasa7) and "scatter" not in traced(nasa7)
+
+
+LISTS = textwrap.dedent("""\
+    units: {length: cm, quantity: mol, activation-energy: cal/mol}
+    phases:
+    - name: gas
+      thermo: ideal-gas
+      species: [{h2o2.yaml/species: [H2, H, O2, O, OH, HO2, H2O, H2O2, AR]}]
+      kinetics: gas
+      reactions: all
+    reactions:
+    - equation: H + O2 <=> O + OH
+      rate-constant: [3.52e+16, -0.7, 17069.79]
+    - equation: O + H2 <=> H + OH
+      rate-constant: [5.06e+04, 2.67, 26.3 kJ/mol]
+    - equation: H2 + OH <=> H2O + H
+      rate-constant: [2.16e+08, 1.51]
+    - equation: HO2 + OH <=> H2O + O2
+      rate-constant: [1.0e+10 m^3/kmol/s, 0.0, 500 K]
+    - equation: 2 O + M <=> O2 + M
+      type: three-body
+      rate-constant: [6.165e+15, -0.5, 0.0]
+      efficiencies: {H2: 2.5, H2O: 12.0, AR: 0.83}
+    - equation: H + O2 (+M) <=> HO2 (+M)
+      type: falloff
+      high-P-rate-constant: [4.65e+12, 0.44, 0.0]
+      low-P-rate-constant: [5.75e+19, -1.4, 0.0]
+      Troe: {A: 0.5, T3: 1.0e-30, T1: 1.0e+30}
+    - equation: 2 OH (+M) <=> H2O2 (+M)
+      type: chemically-activated
+      high-P-rate-constant: [7.4e+13, -0.37, 0.0]
+      low-P-rate-constant: [2.3e+18, -0.9, -1700.0]
+    - equation: H2O2 + H <=> H2O + OH
+      type: Blowers-Masel
+      rate-constant: [2.41e+13, 0.0, 3970.0, 1.0e+05]
+    """)
+
+
+def test_rate_constants_written_as_lists_match_cantera(tmp_path):
+    path = _write(tmp_path, LISTS)
+    mechanism = Mechanism.from_yaml(path)
+    assert mechanism.n_reactions == cantera.Solution(str(path)).n_reactions == 8
+    rates = compare_rates(mechanism, path, n_states=40)
+    assert max(rates.rates_of_progress, rates.net_production) <= 1e-10, rates
+
+
+def _reaction(body: str) -> str:
+    return LISTS.split("reactions:\n-")[0] + "reactions:\n- equation: H + O2 <=> O + OH\n" + textwrap.indent(
+        textwrap.dedent(body), "  ")
+
+
+@pytest.mark.parametrize(("body", "message"), [
+    ("rate-constant: [1.0e+13]\n", r"rate constant written as a list is \[A, b, Ea\], the first 2 required"),
+    ("rate-constant: [1.0e+13, 0.0, 0.0, 1.0, 2.0]\n", r"\[A, b, Ea\], the first 2 required"),
+    ("type: pressure-dependent-Arrhenius\nrate-constants:\n- [1 atm, 1.0e+13, 0.0, 0.0]\n",
+     r"each PLOG rate-constants entry is a mapping"),
+    ("type: Blowers-Masel\nrate-constant: [1.0e+13, 0.0, 100.0]\n", r"\[A, b, Ea0, w\], the first 4 required"),
+], ids=["one number", "five numbers", "PLOG entry", "Blowers-Masel without w"])
+def test_malformed_rate_lists_are_refused_as_cantera_refuses_them(tmp_path, body, message):
+    path = _write(tmp_path, _reaction(body))
+    if "Blowers" not in body:  # Cantera reads a missing w as 0; we refuse, as for {A, b, Ea0}
+        with pytest.raises(cantera.CanteraError):
+            cantera.Solution(str(path))
+    with pytest.raises(InputError, match=rf"phase.yaml:\d+: reaction 0 \(H \+ O2 <=> O \+ OH\): .*{message}"):
+        Mechanism.from_yaml(path)
+
+
+@pytest.mark.parametrize("name", ["gri30.yaml", "ohn.yaml", "example_data/co2-thermo.yaml"])
+def test_a_bare_file_name_is_found_where_cantera_finds_it(name):
+    mechanism = Mechanism.from_yaml(name)
+    solution = cantera.Solution(name)
+    assert mechanism.species_names == tuple(solution.species_names)
+    assert mechanism.n_reactions == solution.n_reactions
+
+
+def test_a_local_file_wins_over_cantera_data_and_a_missing_one_is_named(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    _write(tmp_path, (DATA / "h2o2.yaml").read_text().replace("name: ohmech", "name: local"), "gri30.yaml")
+    assert cantera.Solution("gri30.yaml").name == "local"
+    assert Mechanism.from_yaml("gri30.yaml").n_species == 10
+    with pytest.raises(InputError, match="'no-such-mechanism.yaml' is not a file, nor one in Cantera's data"):
+        Mechanism.from_yaml("no-such-mechanism.yaml")
+
+
+@pytest.mark.parametrize(("body", "feature"), [
+    ("sticking-coefficient: {A: 0.1, b: 0, Ea: 0}\n", "field 'sticking-coefficient'"),
+    ("rate-constant: {A: 1.0e+13, b: 0, Ea: 0}\ncoverage-dependencies: {O: {a: 0, m: 0, E: 1000}}\n",
+     "field 'coverage-dependencies'"),
+    ("type: interface-Arrhenius\nrate-constant: {A: 1.0e+13, b: 0, Ea: 0}\n", "type 'interface-Arrhenius'"),
+    ("rate-constant: {A: 1.0e+13, b: 0, Ea: 0}\nbeta: 0.5\n", "field 'beta'"),
+], ids=["sticking", "coverage", "interface type", "electrochemical"])
+def test_surface_reaction_features_are_refused_by_name(tmp_path, body, feature):
+    path = _write(tmp_path, _reaction(body))
+    with pytest.raises(InputError, match=rf"phase.yaml:9: reaction 0 \(H \+ O2 <=> O \+ OH\): {re.escape(feature)} "
+                                         "belongs to a surface or edge reaction"):
+        Mechanism.from_yaml(path)
+
+
+def test_a_surface_phase_is_refused_naming_the_file_and_phase():
+    with pytest.raises(InputError, match=r"ptcombust.yaml:\d+: phase 'Pt_surf': a surface or edge phase "
+                                         r"\(thermo 'ideal-surface'"):
+        Mechanism.from_yaml("ptcombust.yaml", "Pt_surf")
+
+
+def test_a_yaml_syntax_error_names_the_file(tmp_path):
+    path = _write(tmp_path, "phases:\n- name: gas\n  thermo: [ideal-gas\n")
+    with pytest.raises(InputError, match=rf"mechanism file {re.escape(str(path))}: not valid YAML"):
+        Mechanism.from_yaml(path)
+
+
+def test_density_and_molar_density_give_cantera_molar_volumes_and_rates(tmp_path):
+    # pharma.yaml with A by density (custom element Y, 50 kg/kmol), S (ethanol, C2H6O: Cantera's
+    # atomic weights) by density in g/cm^3, P by molar density, and I by a list of models.
+    text = (MECHANISMS / "pharma.yaml").read_text().splitlines(keepends=True)
+    eos = {"A": "{model: constant-volume, density: 1500.0}",
+           "S": "{model: constant-volume, density: 0.789 g/cm^3}",
+           "P": "{model: constant-volume, molar-density: 12.5 mol/L}",
+           "I": "[{model: constant-volume, molar-volume: 0.07}]"}
+    species = None
+    for i, line in enumerate(text):
+        species = line.split("- name: ")[1].strip() if line.startswith("- name: ") else species
+        if line.strip().startswith("equation-of-state:") and species in eos:
+            text[i] = f"  equation-of-state: {eos[species]}\n"
+    path = _write(tmp_path, "".join(text))
+    mechanism = Mechanism.from_yaml(path)
+    solution = cantera.Solution(str(path))
+    np.testing.assert_allclose(np.asarray(mechanism.molar_volumes), solution.partial_molar_volumes, rtol=1e-14)
+    assert len(set(np.round(solution.partial_molar_volumes, 6))) == 5  # four volumes changed
+    rates = compare_rates(mechanism, path, n_states=20, temperature=(280.0, 400.0))
+    assert max(rates.rates_of_progress, rates.net_production) <= 1e-10, rates
+
+
+def test_a_condensed_species_without_a_volume_is_refused_naming_it(tmp_path):
+    text = (MECHANISMS / "pharma.yaml").read_text().replace(
+        "equation-of-state: {model: constant-volume, molar-volume: 0.0584 m^3/kmol}\n- name: B",
+        "equation-of-state: {model: constant-volume}\n- name: B", 1)
+    with pytest.raises(InputError, match=r"phase.yaml:\d+: species 'A' needs an equation-of-state"):
+        Mechanism.from_yaml(_write(tmp_path, text))
