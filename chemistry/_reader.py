@@ -77,7 +77,8 @@ class _Reaction:
         kind = node.get("type")
         if kind is None:
             kind = "falloff" if eq.falloff else ("three-body" if eq.collider else "elementary")
-        surface = [f"field {key!r}" for key in _SURFACE_KEYS if key in node] + [f"type {kind!r}"] * (kind in _SURFACE_TYPES)
+        surface = [f"field {key!r}" for key in _SURFACE_KEYS if key in node]
+        surface += [f"type {kind!r}"] * (kind in _SURFACE_TYPES)
         if surface:
             raise InputError(f"{label}: {surface[0]} belongs to a surface or edge reaction, which is not supported "
                              "(only gas and bulk-phase kinetics are).")
@@ -187,7 +188,8 @@ def read_mechanism(cls, path, phase=None):
     else:
         basis = str(phase_node.get("standard-concentration-basis", "unity"))
         if basis not in _ACTIVITY_BASES:
-            raise InputError(f"{where}: standard-concentration-basis = {basis!r}; allowed: {', '.join(_ACTIVITY_BASES)}.")
+            raise InputError(f"{where}: standard-concentration-basis = {basis!r}; allowed: "
+                             f"{', '.join(_ACTIVITY_BASES)}.")
 
     species_nodes = phase_species(sources, phase_node)
     species = [str(node["name"]) for _, node in species_nodes]

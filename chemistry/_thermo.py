@@ -1,5 +1,5 @@
 """Species reference-state thermodynamics: NASA 7-coefficient polynomials, constant heat capacity
-and NASA 9-coefficient polynomials, evaluated for all species at once."""
+and NASA 9-coefficient polynomials (which also carry Shomate's), evaluated for all species at once."""
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -61,8 +61,8 @@ class SpeciesThermo(eqx.Module):
       them).
     - `nasa_low`, `nasa_high`: shape `(n, 7)`, coefficients below / above `t_mid` [K].
     - `t0` [K], `h0_r` = h0/R [K], `s0_r` = s0/R [-], `cp0_r` = cp0/R [-]: constant-cp data.
-    - `nasa9`: the NASA9 species (`Nasa9`), or None where there are none: a mechanism without
-      them traces no NASA9 code.
+    - `nasa9`: the NASA9 species (`Nasa9`; Shomate ones too, rewritten in NASA9 form), or None
+      where there are none: a mechanism without them traces no NASA9 code.
     """
 
     is_nasa: Mask

@@ -1,4 +1,4 @@
-"""Reading the species of a phase into `SpeciesThermo` (NASA7, constant-cp, NASA9) and, in an
+"""Reading the species of a phase into `SpeciesThermo` (NASA7, constant-cp, NASA9, Shomate) and, in an
 ideal-condensed phase, their molar volumes (constant-volume equation of state), as Cantera reads
 them."""
 
@@ -11,21 +11,31 @@ from ._sources import Source
 from ._thermo import Nasa9, SpeciesThermo
 from ._units import GAS_CONSTANT
 
-_MODELS = "'NASA7', 'constant-cp', 'NASA9'"
+_MODELS = "'NASA7', 'constant-cp', 'NASA9', 'Shomate'"
 
 
 def _polynomials(label: str, thermo, model: str, width: int):
     """(ranges [K], coefficient rows) of a NASA7 or NASA9 `thermo` mapping, checked."""
     data = [list(map(float, row)) for row in thermo["data"]]
     ranges = list(map(float, thermo["temperature-ranges"]))
-    counts = "one or two sets" if model == "NASA7" else "one or more sets"
-    if (not data or (model == "NASA7" and len(data) > 2) or len(ranges) != len(data) + 1
+    counts = "one or more sets" if model == "NASA9" else "one or two sets"
+    if (not data or (model != "NASA9" and len(data) > 2) or len(ranges) != len(data) + 1
             or any(len(row) != width for row in data)):
         raise InputError(f"{label} {model} needs {counts} of {width} coefficients and one more temperature-ranges "
                          f"entry; got {[len(row) for row in data]} coefficients and {len(ranges)} temperatures.")
     if any(upper <= lower for lower, upper in zip(ranges, ranges[1:])):
         raise InputError(f"{label} {model} temperature-ranges {ranges} must increase.")
     return ranges, data
+
+
+def _shomate_as_nasa9(ranges: list[float], data: list[list[float]]):
+    """Shomate polynomials (A..G in t = T/1000 [K], cp in J/mol/K, h in kJ/mol, as NIST and
+    Cantera write them) as the same functions of T in NASA9 form. Cantera takes the low range at
+    T <= T_mid, where NASA9 takes the high one: the boundary moves up by one ulp."""
+    per_r = 1e3 / GAS_CONSTANT  # [mol K/J]
+    rows = [[e * 1e6 * per_r, 0.0, a * per_r, b * 1e-3 * per_r, c * 1e-6 * per_r, d * 1e-9 * per_r, 0.0,
+             f * 1e3 * per_r, (g - a * np.log(1e3)) * per_r] for a, b, c, d, e, f, g in data]
+    return [ranges[0], *np.nextafter(ranges[1:-1], np.inf), ranges[-1]], rows
 
 
 def _stack_nasa9(index: list[int], polynomials: list) -> Nasa9 | None:
@@ -44,7 +54,7 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
     """`SpeciesThermo` of the species nodes, in their order.
 
     **Raises:** `InputError` naming the file, line and species for a thermo model other than
-    NASA7, constant-cp and NASA9, or polynomials of the wrong shape."""
+    NASA7, constant-cp, NASA9 and Shomate, or polynomials of the wrong shape."""
     n = len(species_nodes)
     is_nasa = np.zeros(n, bool)
     t_mid = np.full(n, 1000.0)
@@ -65,6 +75,9 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
         elif model == "NASA9":
             nasa9_index.append(k)
             nasa9.append(_polynomials(label, thermo, model, 9))
+        elif model == "Shomate":
+            nasa9_index.append(k)
+            nasa9.append(_shomate_as_nasa9(*_polynomials(label, thermo, model, 7)))
         elif model == "constant-cp":
             t0[k] = units.convert(f"species {name} T0", thermo.get("T0", 298.15), "temperature")
             energy = "energy/quantity"
@@ -72,7 +85,8 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
             s0[k] = units.convert(f"species {name} s0", thermo.get("s0", 0.0), energy + "/temperature") / GAS_CONSTANT
             cp0[k] = units.convert(f"species {name} cp0", thermo.get("cp0", 0.0), energy + "/temperature") / GAS_CONSTANT
         else:
-            raise InputError(f"{source.where(node)}: species {name!r} has thermo model {model!r}; supported: {_MODELS}.")
+            raise InputError(f"{source.where(node)}: species {name!r} has thermo model {model!r}; "
+                             f"supported: {_MODELS}.")
     return SpeciesThermo(jnp.asarray(is_nasa), jnp.asarray(t_mid), jnp.asarray(low), jnp.asarray(high),
                          jnp.asarray(t0), jnp.asarray(h0), jnp.asarray(s0), jnp.asarray(cp0),
                          _stack_nasa9(nasa9_index, nasa9))

@@ -1,5 +1,5 @@
 """What the mechanism reader reads beyond the basic reaction types, each against Cantera: NASA9
-thermo (alone and mixed with NASA7), rate constants written as lists, bare file names found on
+thermo (alone and mixed with NASA7) and Shomate thermo, rate constants written as lists, bare file names found on
 Cantera's data path, and constant-volume species given by density or molar density; and what it
 refuses (surface and edge features, malformed YAML), naming the file, line, reaction and feature."""
 
@@ -58,6 +58,43 @@ def test_nasa9_thermo_matches_cantera_in_every_range_and_at_the_boundaries(tmp_p
         for value, reference in zip(ours, _standard_state(solution, temperature)):
             np.testing.assert_allclose(np.asarray(value), reference, rtol=1e-12, atol=0, err_msg=f"T = {temperature}")
     assert compare_thermo(mechanism, path, n_states=50, temperature=(200.0, 20000.0)) <= 1e-12
+
+
+SHOMATE = textwrap.dedent("""\
+    phases:
+    - name: gas
+      thermo: ideal-gas
+      species: [{species: [CO2, H2O]}, {h2o2.yaml/species: [H2, O2]}]
+    species:
+    - name: CO2  # NIST's Shomate coefficients, two ranges
+      composition: {C: 1, O: 2}
+      thermo:
+        model: Shomate
+        temperature-ranges: [298.0, 1200.0, 6000.0]
+        data:
+        - [24.99735, 55.18696, -33.69137, 7.948387, -0.136638, -403.6075, 228.2431]
+        - [58.16639, 2.720074, -0.4922289, 0.03883844, -6.447293, -425.9186, 263.6125]
+    - name: H2O  # one range
+      composition: {H: 2, O: 1}
+      thermo:
+        model: Shomate
+        temperature-ranges: [500.0, 1700.0]
+        data:
+        - [30.092, 6.832514, 6.793435, -2.53448, 0.082139, -250.881, 223.3967]
+    """)
+
+
+def test_shomate_thermo_matches_cantera_on_either_side_of_its_midpoint(tmp_path):
+    path = _write(tmp_path, SHOMATE)
+    thermo = Mechanism.from_yaml(path).thermo
+    solution = cantera.Solution(str(path))
+    # Cantera takes Shomate's low range at T <= T_mid (1200 K), NASA9's high one at its boundary.
+    for temperature in [250.0, 298.0, 700.0, np.nextafter(1200.0, 0.0), 1200.0, np.nextafter(1200.0, 2e3), 1700.0,
+                        4000.0, 8000.0]:
+        ours = (thermo.cp_r(temperature), thermo.h_rt(temperature), thermo.s_r(temperature))
+        for value, reference in zip(ours, _standard_state(solution, temperature)):
+            error = np.abs(np.asarray(value) - reference) / np.maximum(np.abs(reference), 1.0)
+            assert error.max() <= 1e-12, (temperature, error)
 
 
 def test_mixed_nasa9_and_nasa7_rates_match_cantera(tmp_path):
