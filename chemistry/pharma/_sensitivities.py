@@ -9,7 +9,8 @@ import numpy as np
 from jax.sharding import NamedSharding
 
 from snapo_ode import (
-    SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, flatten_inputs, jacobian, per_sample, spec, to_host)
+    SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, exported, flatten_inputs, jacobian, per_sample, spec,
+    to_host)
 
 from ._chain import PharmaChain
 from ._cqa import cqa_vector
@@ -64,14 +65,18 @@ def _values_and_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameter
     return result.values, result.matrix
 
 
+_exported_values_and_jacobian = exported(_values_and_jacobian, name="pharma-jacobian")
+
+
 def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
     """A jitted function of the inputs -> (CQAs (5,), Jacobian (5, n)), with the chain's adjoint
     set for `mode` ("reverse": 5 vmapped vjp passes; "forward": n vmapped jvp tangents). With
-    `with_parameters=False`, n = 4 (the CPPs). One compiled program per (scene, solver, mode)
-    is shared by every caller in the process, and stored by the persistent compilation cache
+    `with_parameters=False`, n = 4 (the CPPs). One program per (scene, solver, mode, shapes) is
+    shared by every caller in the process, and kept on disk traced (`snapo_ode.exported`) and
+    compiled (the persistent compilation cache), so a second process does neither
     (`snapo_ode.call_checked`: a failed solve raises `SolverFailed` here, on the host)."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
-    return lambda inputs: call_checked(_values_and_jacobian, chain, inputs, with_parameters, mode,
+    return lambda inputs: call_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode,
                                        what="the chain's sensitivities")
 
 

@@ -8,7 +8,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from snapo_ode import Jacobian, Result, agreement, call_checked, compare_with_bumps, field, time_function
+from snapo_ode import Jacobian, Result, agreement, call_checked, compare_with_bumps, exported, field, time_function
 
 from ._chain import CHAIN_SOLVER, PharmaChain
 from ._parameters import ChainInputs, CPPs, outside_par
@@ -112,6 +112,15 @@ def solver_error_warnings(checks: dict, rtol: float, threshold: float = MAX_SOLV
             if checks.get(key) is not None and checks[key] > threshold]
 
 
+def _call_bumps(adjoint, bumped_chain: PharmaChain, program, *args):
+    """How `sensitivity_study` calls its programs: the adjoint as it is (exported already), the
+    central differences' program exported, keyed by the chain it closes over and the Richardson
+    steps it takes (`snapo_ode.exported`), so that a second process traces neither."""
+    if program is not adjoint:
+        program = exported(program, name="pharma-bumps", static=(bumped_chain, "richardson"))
+    return call_checked(program, *args, what="the chain's sensitivities")
+
+
 def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
                       check_bumps: bool = True, reference=REFERENCE,
                       max_solver_error: float = MAX_SOLVER_ERROR) -> SensitivityStudy:
@@ -124,11 +133,11 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     scales = input_scales(inputs)
     checks = {}
     if check_bumps:
+        adjoint, bumped_chain = jacobian_function(chain, True, mode), chain.with_solver(BUMP_SOLVER)
         comparison = compare_with_bumps(
-            cqa_function(chain), inputs, adjoint_fn=jacobian_function(chain, True, mode),
-            bump_fn=cqa_function(chain.with_solver(BUMP_SOLVER)), relative_step=BUMP_RELATIVE_STEP, step_floor=0.0,
-            richardson=True, scales=scales, zero=1e-12, repeats=repeats, bump_repeats=1,
-            call=functools.partial(call_checked, what="the chain's sensitivities"))
+            cqa_function(chain), inputs, adjoint_fn=adjoint, bump_fn=cqa_function(bumped_chain),
+            relative_step=BUMP_RELATIVE_STEP, step_floor=0.0, richardson=True, scales=scales, zero=1e-12,
+            repeats=repeats, bump_repeats=1, call=functools.partial(_call_bumps, adjoint, bumped_chain))
         jac = named_jacobian(chain, inputs, comparison.value, comparison.adjoint, mode)
         seconds, compile_seconds = comparison.adjoint_seconds, comparison.adjoint_compile_seconds
         bumped = named_jacobian(chain, inputs, comparison.value, comparison.bumped, mode)

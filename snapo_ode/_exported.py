@@ -1,0 +1,230 @@
+"""Traced and lowered programs kept on disk, so that a second process neither traces nor compiles.
+
+JAX's persistent compilation cache (`snapo_ode.configure`) stores XLA executables, but a new
+process must still trace and lower a program before it can look the executable up: ~24 s of
+Python for the pharma chain's Jacobian, every process. `exported(fn, name=...)` serialises the
+lowered program (`jax.export`) into `<compilation cache dir>/exported/` and, in the next process,
+deserialises it instead of tracing `fn`; its XLA compile then hits the persistent cache.
+
+An entry's key is everything that shapes the program:
+
+- `name`; the arguments' pytree structure, shapes and dtypes, and every non-array leaf (solver
+  settings, modes, flags); `static`: what `fn` closes over (a model), array values included;
+- the versions of Python, snapo-ode, JAX, jaxlib, equinox, diffrax, lineax and optimistix, a
+  hash of the source of `snapo_ode` and of the package defining `fn` (a code change makes new
+  keys), the backend, float64, the default matmul precision and equinox's runtime-check mode.
+
+An argument that cannot be described the same way in every process (a closure, an object
+without a structural description) is refused with `Unkeyable` rather than keyed by its address.
+A file is written atomically, carries the SHA-256 of its program, and one that is corrupt or does
+not deserialise is rebuilt with a warning, never trusted; a program that cannot be exported (a
+host callback, an unstable custom call) runs through `jax.jit` as before, with a warning.
+
+Runtime checks: export refuses host callbacks, so an `equinox.error_if` compiled as a callback
+cannot be exported. Call exported programs through `snapo_ode.call_checked`, which traces every
+check as a NaN mark and raises `SolverFailed` on the host: a failed solve still raises after
+deserialisation, and never gives a silent NaN. Export the function that returns the value and
+its derivative (not a deserialised function then differentiated): the entry holds the
+differentiated program, custom_vjp and checkpointed loops already lowered.
+"""
+
+import dataclasses
+import enum
+import functools
+import hashlib
+import importlib.metadata
+import importlib.util
+import json
+import pathlib
+import site
+import sys
+import sysconfig
+import types
+import warnings
+from collections.abc import Callable
+
+import equinox as eqx
+import equinox._errors as equinox_errors
+import jax
+import numpy as np
+
+from ._io import atomic_write_bytes
+
+EXPORTED_DIRECTORY = "exported"
+"""The entries' directory, inside the compilation cache directory."""
+_MAGIC = b"snapo-exported 1\n"
+_VERSIONED = ("snapo-ode", "jax", "jaxlib", "equinox", "diffrax", "lineax", "optimistix")
+_LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deserialised program
+
+
+class Unkeyable(TypeError):
+    """An argument of an exported program has no description that is the same in every process."""
+
+
+def _name(kind: type) -> str:
+    return f"{kind.__module__}.{kind.__qualname__}"
+
+
+def describe(tree, *, values: bool = False):
+    """A JSON-able description of `tree` that is the same in every process: arrays by dtype and
+    shape (and, with `values`, the SHA-256 of their bytes), scalars and strings by value,
+    containers and dataclasses (`equinox.Module`s) field by field, functions and classes by
+    qualified name. **Raises:** `Unkeyable` for a closure, a lambda or an unknown object."""
+    if isinstance(tree, jax.core.Tracer):
+        raise Unkeyable("a traced value (called inside jit): nothing to export")
+    if isinstance(tree, (jax.Array, np.ndarray, np.generic)):
+        described = ["array", str(tree.dtype), list(np.shape(tree)), bool(getattr(tree, "weak_type", False))]
+        return described + [hashlib.sha256(np.asarray(tree).tobytes()).hexdigest()] if values else described
+    if tree is None or isinstance(tree, (bool, int, float, complex, str, bytes)):
+        return [type(tree).__name__, repr(tree)]
+    if isinstance(tree, enum.Enum):
+        return [_name(type(tree)), tree.name]
+    if isinstance(tree, (tuple, list)):
+        return [_name(type(tree)), [describe(leaf, values=values) for leaf in tree]]
+    if isinstance(tree, dict):
+        return [_name(type(tree)), sorted([repr(k), describe(v, values=values)] for k, v in tree.items())]
+    if isinstance(tree, (set, frozenset)):
+        return [_name(type(tree)), sorted(json.dumps(describe(leaf, values=values)) for leaf in tree)]
+    if isinstance(tree, type):
+        return ["class", _name(tree)]
+    if isinstance(tree, types.FunctionType) and tree.__closure__ is None and "<" not in tree.__qualname__:
+        return ["function", f"{tree.__module__}.{tree.__qualname__}"]
+    if dataclasses.is_dataclass(tree):
+        return [_name(type(tree)), [[f.name, describe(getattr(tree, f.name), values=values)]
+                                    for f in dataclasses.fields(tree)]]
+    raise Unkeyable(f"{type(tree).__qualname__} has no description that is the same in every process")
+
+
+def _packages(description) -> set[str]:
+    """The top-level packages of the classes and functions named in a `describe` output."""
+    if not isinstance(description, list):
+        return set()
+    if len(description) == 2 and description[0] in ("class", "function"):
+        return {description[1].split(".")[0]}
+    head = description[0] if description and isinstance(description[0], str) else ""
+    found = {head.split(".")[0]} if "." in head and head.split(".")[0].isidentifier() else set()
+    return found.union(*(_packages(part) for part in description))
+
+
+@functools.cache
+def _source_digest(packages: tuple[str, ...]) -> str:
+    """SHA-256 of every .py file (path and bytes) of those of `packages` that are not installed
+    in site-packages or the standard library (those are keyed by their versions): this project's."""
+    installed = {*site.getsitepackages(), sysconfig.get_paths()["stdlib"]}
+    digest = hashlib.sha256()
+    for package in packages:
+        try:
+            spec = importlib.util.find_spec(package)
+        except (ImportError, ValueError):
+            spec = None
+        for root in (spec and spec.submodule_search_locations) or []:
+            if any(pathlib.Path(root).is_relative_to(place) for place in installed):
+                continue
+            digest.update(package.encode() + b"\0")
+            for path in sorted(pathlib.Path(root).rglob("*.py")):
+                digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+@functools.cache
+def _versions() -> dict:
+    def version(name: str) -> str | None:
+        try:
+            return importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            return None
+
+    return {"python": sys.version, **{name: version(name) for name in _VERSIONED}}
+
+
+def environment(packages=()) -> dict:
+    """What besides its arguments shapes a program: versions, the source of `snapo_ode` and of
+    `packages` (top-level names), the backend and the JAX settings tracing reads."""
+    return {"versions": _versions(),
+            "source": _source_digest(tuple(sorted({"snapo_ode", *packages}))), "backend": jax.default_backend(),
+            "x64": bool(jax.config.jax_enable_x64), "precision": str(jax.config.jax_default_matmul_precision),
+            "runtime_checks": str(getattr(equinox_errors, "EQX_ON_ERROR", None))}
+
+
+def entry_path(name: str, key: dict) -> pathlib.Path | None:
+    """The file of the program `name` with `key`, or None without a compilation cache directory."""
+    directory = jax.config.jax_compilation_cache_dir
+    if not directory:
+        return None
+    digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:40]
+    return pathlib.Path(directory) / EXPORTED_DIRECTORY / f"{name}-{digest}.jaxexport"
+
+
+def _read(path: pathlib.Path):
+    """The deserialised program at `path`; None if absent, or corrupt (then with a warning)."""
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None
+    try:
+        if not data.startswith(_MAGIC + b"sha256 "):
+            raise ValueError("not an exported program")
+        checksum, _, program = data[len(_MAGIC + b"sha256 "):].partition(b"\n")
+        if hashlib.sha256(program).hexdigest().encode() != checksum:
+            raise ValueError("checksum mismatch: truncated or altered")
+        return jax.export.deserialize(bytearray(program))
+    except Exception as error:  # noqa: BLE001 - any failure means: rebuild, never trust
+        warnings.warn(f"snapo: exported program {path} is unreadable ({error}); tracing it again", stacklevel=4)
+        return None
+
+
+def _load_or_export(path: pathlib.Path, flat: Callable, leaves, name: str) -> Callable:
+    """The program at `path`, else `flat` traced, lowered and written there; jitted. A program
+    that cannot be exported (e.g. a host callback) is `flat` jitted, with a warning."""
+    program = _read(path)
+    if program is None:
+        structs = [jax.ShapeDtypeStruct(np.shape(leaf), leaf.dtype) for leaf in leaves]
+        try:
+            serialised = jax.export.export(jax.jit(flat))(*structs).serialize()
+        except Exception as error:  # noqa: BLE001 - whatever export refuses runs as before
+            warnings.warn(f"snapo: {name} cannot be exported ({type(error).__name__}: {error}); it is traced "
+                          "in every process", stacklevel=4)
+            return jax.jit(flat)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(path, _MAGIC + b"sha256 " + hashlib.sha256(serialised).hexdigest().encode() + b"\n"
+                           + serialised)
+        program = jax.export.deserialize(bytearray(serialised))
+    return jax.jit(program.call)
+
+
+def exported(fn: Callable, *, name: str, static=None) -> Callable:
+    """`fn` (a function of pytrees, its array leaves traced, every other leaf static) as a
+    program traced once and kept on disk; see the module docstring.
+
+    **Arguments:**
+    - `fn`: returns arrays in tuples, lists or dicts (what `jax.export` serialises).
+    - `name`: the entry's name (letters, digits, `-`), e.g. "pharma-jacobian".
+    - `static`: what `fn` closes over and its program depends on (a model, settings): part of
+      the key, array values included. Arguments need not be listed: they are keyed by structure.
+
+    **Returns:** a function of the same arguments. Without a compilation cache directory, or
+    with an argument that cannot be keyed (`Unkeyable`: a closure, a traced value), it is `fn`
+    jitted (`equinox.filter_jit`).
+    """
+    static_key = describe(static, values=True)
+    packages = _packages(static_key) | {(getattr(fn, "__module__", None) or "snapo_ode").split(".")[0]}
+
+    def call(*args):
+        try:
+            arguments = describe(args)
+            path = entry_path(name, {"name": name, "static": static_key, "args": arguments,
+                                     "environment": environment(packages | _packages(arguments))})
+        except Unkeyable:
+            path = None
+        if path is None:
+            return eqx.filter_jit(fn)(*args)
+        dynamic, static_part = eqx.partition(args, eqx.is_array)
+        leaves, treedef = jax.tree.flatten(dynamic)
+        if path not in _LOADED:
+            def flat(*dynamic):
+                return fn(*eqx.combine(jax.tree.unflatten(treedef, dynamic), static_part))
+
+            _LOADED[path] = _load_or_export(path, flat, leaves, name)
+        return _LOADED[path](*leaves)
+
+    return call

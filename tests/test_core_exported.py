@@ -1,0 +1,159 @@
+"""Exported programs (`snapo_ode.exported`): a second process loads the traced program from disk
+and neither traces it nor compiles it; its results are bit-identical to the first process's and
+match the plain jitted function; a changed setting or shape makes a new entry; a corrupt entry is
+rebuilt with a warning; a failed solve still raises `SolverFailed` through the deserialised
+program (its checks are NaN marks under `call_checked`, not host callbacks).
+
+Traces are counted by a Python side effect inside the exported function, compiles as JAX's
+backend-compile events less its persistent-cache hits (as in test_core_cache.py)."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import equinox as eqx
+import jax.numpy as jnp
+import pytest
+
+import snapo_ode
+from snapo_ode._exported import EXPORTED_DIRECTORY
+
+SCRIPT = """
+import json, sys, warnings
+import diffrax, equinox as eqx, jax, jax.numpy as jnp, numpy as np
+from jax._src.dispatch import BACKEND_COMPILE_EVENT
+import snapo_ode
+from snapo_ode._exported import EXPORTED_DIRECTORY
+
+snapo_ode.configure()
+compiles, hits, traces = [], [], []
+jax.monitoring.register_event_duration_secs_listener(
+    lambda event, duration, **kw: compiles.append(event) if event == BACKEND_COMPILE_EVENT else None)
+jax.monitoring.register_event_listener(lambda event, **kw: hits.append(event) if event.endswith("cache_hits") else None)
+
+
+class Decay(eqx.Module):
+    rates: jax.Array
+    max_steps: int = eqx.field(static=True)
+
+
+def value_and_gradient(model, y0):
+    traces.append(1)  # runs only when the function is traced
+
+    def final(rates):
+        solution = snapo_ode.diffeqsolve_checked(
+            diffrax.ODETerm(lambda t, y, k: -k * y), diffrax.Kvaerno3(), 0.0, 1.0, None, y0, rates,
+            stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-10), max_steps=model.max_steps)
+        return jnp.sum(solution.ys[-1] ** 2)
+
+    return jax.value_and_grad(final)(model.rates)
+
+
+program = snapo_ode.exported(value_and_gradient, name="test-decay")
+max_steps, n = int(sys.argv[1]), int(sys.argv[2])
+model = Decay(jnp.linspace(1.0, 1e3, n), max_steps)
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    try:
+        value, gradient = snapo_ode.call_checked(program, model, jnp.ones(n))
+        result = {"value": float(value), "gradient": np.asarray(gradient).tolist(), "traces": len(traces),
+                  "compiles": len(compiles) - len(hits)}
+        if sys.argv[3] == "plain":
+            plain = jax.jit(value_and_gradient)(model, jnp.ones(n))
+            result["plain"] = [float(plain[0]), np.asarray(plain[1]).tolist()]
+    except snapo_ode.SolverFailed as error:
+        result = {"failed": str(error), "traces": len(traces)}
+result["warnings"] = [str(w.message) for w in caught if "snapo" in str(w.message)]
+print(json.dumps(result))
+"""
+
+
+def run(cache_dir, max_steps=4096, n=2, plain=False):
+    """The script in a fresh process with `cache_dir` as its cache (with `plain`, also the plain
+    jitted function); its JSON line."""
+    env = dict(os.environ, SNAPO_CACHE_DIR=str(cache_dir))
+    out = subprocess.run([sys.executable, "-c", SCRIPT, str(max_steps), str(n), "plain" if plain else "-"], env=env,
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def entries(cache_dir):
+    return sorted((cache_dir / EXPORTED_DIRECTORY).glob("test-decay-*"))
+
+
+@pytest.fixture(scope="module")
+def exported_once(tmp_path_factory):
+    """A cache directory in which one process exported the program (max_steps 4096, n = 2), and
+    that process's result."""
+    cache_dir = tmp_path_factory.mktemp("exported")
+    return cache_dir, run(cache_dir, plain=True)
+
+
+@pytest.fixture
+def cache(exported_once, tmp_path):
+    """A copy of `exported_once`'s cache directory, for a test to change (the copy's exported
+    entries load; its XLA executables do not: JAX's cache keys depend on the directory)."""
+    shutil.copytree(exported_once[0], tmp_path, dirs_exist_ok=True)
+    return tmp_path
+
+
+def test_second_process_loads_without_tracing_and_gives_the_same_results(exported_once):
+    cache, first = exported_once
+    assert first["traces"] == 1 and len(entries(cache)) == 1
+    assert first["value"] == pytest.approx(first["plain"][0], rel=1e-12, abs=0)
+    assert first["gradient"] == pytest.approx(first["plain"][1], rel=1e-12, abs=1e-300)
+    second = run(cache)
+    assert first["compiles"] >= 1
+    assert second["traces"] == 0 and second["compiles"] == 0
+    assert (second["value"], second["gradient"]) == (first["value"], first["gradient"])  # bit for bit
+    assert second["warnings"] == []
+
+
+def test_a_changed_setting_or_shape_makes_a_new_entry(cache):
+    assert run(cache, max_steps=2048, n=2)["traces"] == 1  # a static field
+    assert run(cache, max_steps=4096, n=3)["traces"] == 1  # an array's shape
+    assert len(entries(cache)) == 3
+    assert run(cache, max_steps=2048, n=2)["traces"] == 0
+
+
+def test_a_corrupt_entry_is_rebuilt_with_a_warning(exported_once, cache):
+    first = exported_once[1]
+    [entry] = entries(cache)
+    data = entry.read_bytes()
+    for damaged in (b"not a program", data[:len(data) // 2], data[:-10] + bytes(b ^ 0xFF for b in data[-10:])):
+        entry.write_bytes(damaged)
+        rebuilt = run(cache)
+        assert rebuilt["traces"] == 1
+        assert any("unreadable" in warning for warning in rebuilt["warnings"])
+        assert (rebuilt["value"], rebuilt["gradient"]) == (first["value"], first["gradient"])
+    assert run(cache)["traces"] == 0  # the rebuilt entry is whole again
+
+
+def test_a_failed_solve_still_raises_through_the_deserialised_program(tmp_path):
+    first = run(tmp_path, max_steps=3)
+    assert "non-finite values: an ODE solve failed" in first["failed"] and first["traces"] == 1
+    second = run(tmp_path, max_steps=3)
+    assert second["traces"] == 0
+    assert "non-finite values: an ODE solve failed" in second["failed"]
+
+
+def test_keys_describe_structure_and_refuse_what_differs_between_processes():
+    class Model(eqx.Module):
+        rates: jnp.ndarray
+        name: str = eqx.field(static=True)
+
+    model = Model(jnp.ones(3), "a")
+    described = snapo_ode.describe(model)
+    assert snapo_ode.describe(Model(jnp.zeros(3), "a")) == described  # arguments: shapes, not values
+    assert snapo_ode.describe(Model(jnp.zeros(3), "a"), values=True) != snapo_ode.describe(model, values=True)
+    assert snapo_ode.describe(Model(jnp.ones(3), "b")) != described
+    assert snapo_ode.describe(Model(jnp.ones(4), "a")) != described
+    with pytest.raises(snapo_ode.Unkeyable):
+        snapo_ode.describe(lambda x: x)
+    scale = 2.0
+    with pytest.raises(snapo_ode.Unkeyable):
+        snapo_ode.describe(lambda x: scale * x)
+    with pytest.raises(snapo_ode.Unkeyable):
+        snapo_ode.describe(object())
