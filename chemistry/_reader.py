@@ -17,7 +17,7 @@ _THERMO_MODELS = ("ideal-gas", "ideal-condensed")
 _ACTIVITY_BASES = ("unity", "species-molar-volume", "solvent-molar-volume")
 _PRESSURE_TYPES = ("pressure-dependent-Arrhenius", "Chebyshev")
 _GAS_ONLY_TYPES = (*_PRESSURE_TYPES, "Blowers-Masel")
-"""Types that need an ideal gas's pressure or enthalpies, and take no third body."""
+"""Types that need an ideal gas's pressure or enthalpies."""
 _FALLOFF_TYPES = ("falloff", "chemically-activated")
 _SUPPORTED_TYPES = ("elementary", "three-body", *_FALLOFF_TYPES, *_GAS_ONLY_TYPES)
 _SURFACE_THERMO = ("ideal-surface", "coverage-dependent-surface", "edge")
@@ -26,6 +26,9 @@ _SURFACE_KEYS = ("sticking-coefficient", "sticking-species", "Motz-Wise", "cover
 _SURFACE_TYPES = ("interface-Arrhenius", "sticking-Arrhenius", "interface-Blowers-Masel", "sticking-Blowers-Masel",
                   "electrochemical")
 """What makes a reaction an interface or edge reaction in Cantera's YAML: refused by name."""
+_TYPE_ALIASES = {"three-body-Arrhenius": "three-body", "three-body-Blowers-Masel": "Blowers-Masel",
+                 **dict.fromkeys(("Lindemann", "Troe", "Tsang", "SRI"), "falloff")}
+"""Cantera's other names for types we read; its type 'Arrhenius' is the one the equation implies."""
 _SUPPORTED = ("elementary, three-body, falloff and chemically-activated (Lindemann, Troe, Tsang, SRI), "
               "pressure-dependent-Arrhenius (PLOG), Chebyshev, Blowers-Masel")
 
@@ -68,15 +71,34 @@ def _equation(label: str, node, species, declared_only: bool, skip_third_bodies:
     return equation
 
 
+def _explicit_collider(label: str, eq: Equation) -> Equation:
+    """A three-body reaction written without M (`H + O2 + AR <=> HO2 + AR`, `type: three-body`)
+    as Cantera reads it: the one species on both sides is the third body, not a reactant."""
+    both = [name for name in eq.reactants if name in eq.products]
+    if len(both) != 1:
+        raise InputError(f"{label}: a three-body reaction needs M, or exactly one species on both sides as its "
+                         f"third body; got {', '.join(both) or 'none'}.")
+
+    def without(side):
+        side = {**side, both[0]: side[both[0]] - 1}
+        return {name: nu for name, nu in side.items() if nu}
+
+    return eq._replace(reactants=without(eq.reactants), products=without(eq.products), collider=both[0])
+
+
 class _Reaction:
     """One reaction's numbers, in SI, before they are stacked into arrays."""
 
     def __init__(self, where, index, node, eq: Equation, species, units, concentration_scaled, skip_third_bodies):
         self.where, self.index, self.equation = where, index, str(node["equation"])
         label = f"{where}: reaction {index} ({self.equation})"
-        kind = node.get("type")
+        units = units.within(node)
+        declared = node.get("type")
+        kind = None if declared == "Arrhenius" else _TYPE_ALIASES.get(declared, declared)
         if kind is None:
             kind = "falloff" if eq.falloff else ("three-body" if eq.collider else "elementary")
+        if kind == "three-body" and eq.collider is None:
+            eq = _explicit_collider(label, eq)
         surface = [f"field {key!r}" for key in _SURFACE_KEYS if key in node]
         surface += [f"type {kind!r}"] * (kind in _SURFACE_TYPES)
         if surface:
@@ -85,11 +107,17 @@ class _Reaction:
         misplaced = ("rate-constants", "data") if kind not in _PRESSURE_TYPES else ()
         if kind not in _SUPPORTED_TYPES or any(key in node for key in misplaced):
             raise InputError(f"{label}: reaction type {kind!r} is not supported; supported types: {_SUPPORTED}.")
-        # Cantera ignores a '(+M)' on a Chebyshev reaction (deprecated) and refuses any other collider.
-        if kind in _GAS_ONLY_TYPES and not (eq.collider is None or (kind == "Chebyshev" and eq.collider == "M"
-                                                                    and eq.falloff)):
+        # Cantera ignores an M on a Chebyshev reaction (deprecated), refuses any other collider there
+        # and on a PLOG reaction, and reads a Blowers-Masel one with a third body ('+ M', '+ AR' on
+        # both sides) as a three-body reaction with a Blowers-Masel rate.
+        if kind in _PRESSURE_TYPES and eq.collider is not None and not (kind == "Chebyshev" and eq.collider == "M"):
             raise InputError(f"{label}: a {kind} reaction with a third body is not supported.")
+        if kind == "Blowers-Masel" and eq.falloff:
+            # Cantera 3.2 accepts it but applies no third-body concentration: refused, not copied.
+            raise InputError(f"{label}: a Blowers-Masel reaction's third body written '(+{eq.collider})' is not "
+                             f"supported; write it '+ {eq.collider}' on both sides.")
         self.kind = kind
+        self.third_body = kind == "three-body" or (kind == "Blowers-Masel" and eq.collider is not None)
         self.reactants, self.products, self.reversible = eq.reactants, eq.products, eq.reversible
         if node.get("orders") and self.reversible:
             raise InputError(f"{label}: explicit orders are only allowed on irreversible reactions.")
@@ -100,7 +128,10 @@ class _Reaction:
             if name not in eq.reactants and not node.get("nonreactant-orders", False):
                 raise InputError(f"{label}: orders names non-reactant {name!r}; set nonreactant-orders: true.")
             self.orders[name] = float(order)
-        order = sum(self.orders.values()) + (kind == "three-body")
+        # Cantera counts a third body in the rate constant's units where it is written '+ M' (or
+        # '+ AR'), not where it is written '(+M)'; a Chebyshev reaction's it then ignores.
+        written = eq.collider is not None and not eq.falloff and kind in ("three-body", "Blowers-Masel", "Chebyshev")
+        order = sum(self.orders.values()) + written
         self.pressure_rate = None
         if kind in _PRESSURE_TYPES:
             read = plog_table if kind == "pressure-dependent-Arrhenius" else chebyshev_fit
@@ -121,7 +152,7 @@ class _Reaction:
         if self.a < 0 and not node.get("negative-A", False):
             raise InputError(f"{label}: A = {self.a} is negative; allowed only with negative-A: true.")
         self.efficiencies = None
-        if kind in ("three-body", *_FALLOFF_TYPES):
+        if self.third_body or kind in _FALLOFF_TYPES:
             if eq.collider not in (None, "M"):
                 self.efficiencies = {name: 0.0 for name in species}
                 self.efficiencies[eq.collider] = 1.0
@@ -138,12 +169,16 @@ class _Reaction:
             if "low-P-rate-constant" not in node:
                 raise InputError(f"{label}: missing 'low-P-rate-constant'.")
             self.low = arrhenius(label, node["low-P-rate-constant"], high_order + 1, units, concentration_scaled)
-            given = [key for key in ("Troe", "Tsang", "SRI") if key in node]
+            # Cantera's type 'Lindemann' ignores any Troe, Tsang or SRI parameters given with it.
+            centring = {} if declared == "Lindemann" else node
+            given = [key for key in ("Troe", "Tsang", "SRI") if key in centring]
             if len(given) > 1:
                 raise InputError(f"{label}: a {kind} reaction has one of Troe, Tsang or SRI parameters; got "
                                  f"{' and '.join(given)}.")
-            self.centring = troe_parameters(node.get("Troe")) + tsang_parameters(label, node.get("Tsang"))
-            self.sri = sri_parameters(label, node.get("SRI"))
+            if declared in ("Troe", "Tsang", "SRI") and declared not in given:
+                raise InputError(f"{label}: a reaction of type {declared!r} needs {declared} parameters.")
+            self.centring = troe_parameters(centring.get("Troe")) + tsang_parameters(label, centring.get("Tsang"))
+            self.sri = sri_parameters(label, centring.get("SRI"))
 
 
 
@@ -231,7 +266,7 @@ def read_mechanism(cls, path, phase=None):
         for name, nu in r.products.items():
             product[i, species.index(name)] = nu
     reversible = np.array([i for i, r in enumerate(reactions) if r.reversible], np.int32)
-    three = [r for r in reactions if r.kind == "three-body"]
+    three = [r for r in reactions if r.third_body]
     blowers = [r for r in reactions if r.kind == "Blowers-Masel"]
     fall = [r for r in reactions if r.kind in _FALLOFF_TYPES]
 

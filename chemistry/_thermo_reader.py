@@ -62,7 +62,7 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
     t0, h0, s0, cp0 = np.full(n, 298.15), np.zeros(n), np.zeros(n), np.zeros(n)
     nasa9_index, nasa9 = [], []
     for k, (source, node) in enumerate(species_nodes):
-        name, units = node["name"], source.units
+        name, units = node["name"], source.units.within(node)
         label = f"{source.where(node)}: species {name!r}:"
         thermo = node.get("thermo")
         model = thermo.get("model") if thermo else None
@@ -79,6 +79,7 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
             nasa9_index.append(k)
             nasa9.append(_shomate_as_nasa9(*_polynomials(label, thermo, model, 7)))
         elif model == "constant-cp":
+            units = units.within(thermo)
             t0[k] = units.convert(f"species {name} T0", thermo.get("T0", 298.15), "temperature")
             energy = "energy/quantity"
             h0[k] = units.convert(f"species {name} h0", thermo.get("h0", 0.0), energy) / GAS_CONSTANT
@@ -117,7 +118,7 @@ def molar_volumes(species_nodes: list[tuple[Source, dict]]) -> np.ndarray:
     **Raises:** `InputError` naming the file, line and species without one of them."""
     volumes = np.zeros(len(species_nodes))
     for k, (source, node) in enumerate(species_nodes):
-        name, units = node["name"], source.units
+        name, units = node["name"], source.units.within(node)
         eos = node.get("equation-of-state") or {}
         # Cantera also takes a list of models and uses the constant-volume one.
         eos = next((e for e in eos if e.get("model") == "constant-volume"), {}) if isinstance(eos, list) else eos
@@ -125,6 +126,7 @@ def molar_volumes(species_nodes: list[tuple[Source, dict]]) -> np.ndarray:
             raise InputError(f"{source.where(node)}: species {name!r} needs an equation-of-state {{model: "
                              "constant-volume, molar-volume (or molar-density, or density): ...}} in an "
                              "ideal-condensed phase.")
+        units = units.within(eos)
         if "density" in eos:
             volumes[k] = _molecular_weight(source, node) / units.convert(f"species {name} density", eos["density"],
                                                                          "mass/length^3")

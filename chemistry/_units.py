@@ -59,6 +59,12 @@ class UnitSystem:
             unit_factor(str(value))
             self.units[name] = str(value)
 
+    def within(self, node) -> "UnitSystem":
+        """The units inside `node`: these, under the node's own `units:` mapping if it has one
+        (Cantera lets any mapping set the units of what it holds)."""
+        local = node.get("units") if isinstance(node, Mapping) else None
+        return UnitSystem({**self.units, **local}) if local else self
+
     def factor(self, dimension: str) -> float:
         """The SI factor of a product of dimensions such as `energy/quantity/temperature`."""
         factor = 1.0

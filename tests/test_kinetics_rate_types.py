@@ -172,9 +172,6 @@ _REFUSED = {
     "Blowers-Masel without w": ("A + B <=> C", """
   type: Blowers-Masel
   rate-constant: {A: 1.0e+13, b: 0.0, Ea0: 5000.0}""", "needs rate-constant: {A: ..., b: ..., Ea0: ..., w: ...}"),
-    "Blowers-Masel with a third body": ("A + B + M <=> C + M", """
-  type: Blowers-Masel
-  rate-constant: {A: 1.0e+13, b: 0.0, Ea0: 500.0, w: 1.0e+05}""", "Blowers-Masel reaction with a third body"),
     "Tsang and Troe": ("A + B (+M) <=> C (+M)", """
   type: falloff
   low-P-rate-constant: {A: 1.0e+18, b: -1.0, Ea: 0.0}

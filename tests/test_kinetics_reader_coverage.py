@@ -1,7 +1,8 @@
-"""What the mechanism reader reads beyond the basic reaction types, each against Cantera: NASA9
-thermo (alone and mixed with NASA7) and Shomate thermo, rate constants written as lists, bare file names found on
+"""What the mechanism reader reads beyond NASA7 and the basic reaction types, each against
+Cantera: NASA9 thermo (alone and mixed with NASA7) and Shomate thermo, bare file names found on
 Cantera's data path, and constant-volume species given by density or molar density; and what it
-refuses (surface and edge features, malformed YAML), naming the file, line, reaction and feature."""
+refuses (a surface phase, malformed YAML, a condensed species without a volume), naming the file
+and line. Reaction forms are in test_kinetics_reaction_forms.py."""
 
 import re
 import textwrap
@@ -121,71 +122,6 @@ def test_a_mechanism_without_nasa9_species_traces_no_nasa9_code(tmp_path):
     assert "gather" not in traced(nasa7) and "scatter" not in traced(nasa7)
 
 
-LISTS = textwrap.dedent("""\
-    units: {length: cm, quantity: mol, activation-energy: cal/mol}
-    phases:
-    - name: gas
-      thermo: ideal-gas
-      species: [{h2o2.yaml/species: [H2, H, O2, O, OH, HO2, H2O, H2O2, AR]}]
-      kinetics: gas
-      reactions: all
-    reactions:
-    - equation: H + O2 <=> O + OH
-      rate-constant: [3.52e+16, -0.7, 17069.79]
-    - equation: O + H2 <=> H + OH
-      rate-constant: [5.06e+04, 2.67, 26.3 kJ/mol]
-    - equation: H2 + OH <=> H2O + H
-      rate-constant: [2.16e+08, 1.51]
-    - equation: HO2 + OH <=> H2O + O2
-      rate-constant: [1.0e+10 m^3/kmol/s, 0.0, 500 K]
-    - equation: 2 O + M <=> O2 + M
-      type: three-body
-      rate-constant: [6.165e+15, -0.5, 0.0]
-      efficiencies: {H2: 2.5, H2O: 12.0, AR: 0.83}
-    - equation: H + O2 (+M) <=> HO2 (+M)
-      type: falloff
-      high-P-rate-constant: [4.65e+12, 0.44, 0.0]
-      low-P-rate-constant: [5.75e+19, -1.4, 0.0]
-      Troe: {A: 0.5, T3: 1.0e-30, T1: 1.0e+30}
-    - equation: 2 OH (+M) <=> H2O2 (+M)
-      type: chemically-activated
-      high-P-rate-constant: [7.4e+13, -0.37, 0.0]
-      low-P-rate-constant: [2.3e+18, -0.9, -1700.0]
-    - equation: H2O2 + H <=> H2O + OH
-      type: Blowers-Masel
-      rate-constant: [2.41e+13, 0.0, 3970.0, 1.0e+05]
-    """)
-
-
-def test_rate_constants_written_as_lists_match_cantera(tmp_path):
-    path = _write(tmp_path, LISTS)
-    mechanism = Mechanism.from_yaml(path)
-    assert mechanism.n_reactions == cantera.Solution(str(path)).n_reactions == 8
-    rates = compare_rates(mechanism, path, n_states=40)
-    assert max(rates.rates_of_progress, rates.net_production) <= 1e-10, rates
-
-
-def _reaction(body: str) -> str:
-    return LISTS.split("reactions:\n-")[0] + "reactions:\n- equation: H + O2 <=> O + OH\n" + textwrap.indent(
-        textwrap.dedent(body), "  ")
-
-
-@pytest.mark.parametrize(("body", "message"), [
-    ("rate-constant: [1.0e+13]\n", r"rate constant written as a list is \[A, b, Ea\], the first 2 required"),
-    ("rate-constant: [1.0e+13, 0.0, 0.0, 1.0, 2.0]\n", r"\[A, b, Ea\], the first 2 required"),
-    ("type: pressure-dependent-Arrhenius\nrate-constants:\n- [1 atm, 1.0e+13, 0.0, 0.0]\n",
-     r"each PLOG rate-constants entry is a mapping"),
-    ("type: Blowers-Masel\nrate-constant: [1.0e+13, 0.0, 100.0]\n", r"\[A, b, Ea0, w\], the first 4 required"),
-], ids=["one number", "five numbers", "PLOG entry", "Blowers-Masel without w"])
-def test_malformed_rate_lists_are_refused_as_cantera_refuses_them(tmp_path, body, message):
-    path = _write(tmp_path, _reaction(body))
-    if "Blowers" not in body:  # Cantera reads a missing w as 0; we refuse, as for {A, b, Ea0}
-        with pytest.raises(cantera.CanteraError):
-            cantera.Solution(str(path))
-    with pytest.raises(InputError, match=rf"phase.yaml:\d+: reaction 0 \(H \+ O2 <=> O \+ OH\): .*{message}"):
-        Mechanism.from_yaml(path)
-
-
 @pytest.mark.parametrize("name", ["gri30.yaml", "ohn.yaml", "example_data/co2-thermo.yaml"])
 def test_a_bare_file_name_is_found_where_cantera_finds_it(name):
     mechanism = Mechanism.from_yaml(name)
@@ -201,20 +137,6 @@ def test_a_local_file_wins_over_cantera_data_and_a_missing_one_is_named(tmp_path
     assert Mechanism.from_yaml("gri30.yaml").n_species == 10
     with pytest.raises(InputError, match="'no-such-mechanism.yaml' is not a file, nor one in Cantera's data"):
         Mechanism.from_yaml("no-such-mechanism.yaml")
-
-
-@pytest.mark.parametrize(("body", "feature"), [
-    ("sticking-coefficient: {A: 0.1, b: 0, Ea: 0}\n", "field 'sticking-coefficient'"),
-    ("rate-constant: {A: 1.0e+13, b: 0, Ea: 0}\ncoverage-dependencies: {O: {a: 0, m: 0, E: 1000}}\n",
-     "field 'coverage-dependencies'"),
-    ("type: interface-Arrhenius\nrate-constant: {A: 1.0e+13, b: 0, Ea: 0}\n", "type 'interface-Arrhenius'"),
-    ("rate-constant: {A: 1.0e+13, b: 0, Ea: 0}\nbeta: 0.5\n", "field 'beta'"),
-], ids=["sticking", "coverage", "interface type", "electrochemical"])
-def test_surface_reaction_features_are_refused_by_name(tmp_path, body, feature):
-    path = _write(tmp_path, _reaction(body))
-    with pytest.raises(InputError, match=rf"phase.yaml:9: reaction 0 \(H \+ O2 <=> O \+ OH\): {re.escape(feature)} "
-                                         "belongs to a surface or edge reaction"):
-        Mechanism.from_yaml(path)
 
 
 def test_a_surface_phase_is_refused_naming_the_file_and_phase():
