@@ -10,6 +10,8 @@ MECHANISMS = Path(__file__).parent / "mechanisms"
 """The directory of the mechanisms that ship with this package [`reaction_types.yaml`, `pharma.yaml`]."""
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "._batch": ("IgnitionBatch", "IgnitionBatchResult", "final_temperature_batch", "mole_ratios",
+                "solve_ignition_batch", "temperature_sensitivities_batch"),
     "._check": ("KineticsCheck", "check_against_cantera", "default_case"),
     "._crosscheck": ("RateComparison", "compare_rates"),
     "._ignition": ("IGNITION_CASES", "IgnitionCase", "IgnitionResult", "cantera_ignition", "ignition_delay",
@@ -18,7 +20,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._rate_laws": ("RateParameters",),
     "._reactor": ("REACTOR_EFFECTS", "REACTOR_SOLVER", "Reactor", "Trajectory", "simulate"),
     "._sensitivities": ("SensitivityComparison", "cantera_sensitivities", "compare_sensitivities",
-                        "final_temperature", "temperature_sensitivities"),
+                        "final_temperature", "temperature_at", "temperature_sensitivities"),
     "._thermo": ("SpeciesThermo",),
     "._units": ("GAS_CONSTANT", "ONE_ATM"),
     "snapo_ode": ("SolverSettings",),

@@ -20,6 +20,7 @@ import jax.numpy as jnp
 
 from snapo_ode import Column, call_checked, format_table, time_function, write_table
 
+from ._batch_bench import benchmark_batch
 from ._ignition import IGNITION_CASES, initial_concentrations
 from ._mechanism import Mechanism
 from ._reactor import REACTOR_SOLVER
@@ -57,8 +58,9 @@ def cantera_seconds(path, case, end_time: float, sensitivities: bool, repeats: i
     return statistics.median(runs), reactor.phase.T
 
 
-def benchmark_mechanism(name: str, repeats: int) -> dict:
-    """One row of the benchmark for built-in case `name` ("h2o2" or "gri30")."""
+def benchmark_mechanism(name: str, repeats: int, batch: int | None = None) -> dict:
+    """One row of the benchmark for built-in case `name` ("h2o2" or "gri30"); with `batch`, also
+    the fields of `benchmark_batch` (that many reactors solved as one batch, and Cantera serially)."""
     import cantera
 
     path = pathlib.Path(cantera.__file__).parent / "data" / f"{name}.yaml"
@@ -81,7 +83,7 @@ def benchmark_mechanism(name: str, repeats: int) -> dict:
     cantera_forward, cantera_temperature = cantera_seconds(path, case, end_time, False, repeats)
     cantera_sensitivity, _ = cantera_seconds(path, case, end_time, True,
                                               CANTERA_SENSITIVITY_REPEATS[name])
-    return {
+    row = {
         "mechanism": name, "parameters": mechanism.n_reactions, "end_time_s": end_time,
         "rtol": RTOL, "atol": ATOL, "cantera_sensitivity_tolerance": SENSITIVITY_TOLERANCE,
         "forward_s": forward.median_seconds, "forward_compile_s": forward.compile_seconds,
@@ -91,6 +93,9 @@ def benchmark_mechanism(name: str, repeats: int) -> dict:
         "gradient_speedup_vs_cantera_sensitivities": cantera_sensitivity / gradient.median_seconds,
         "final_temperature_K": float(temperature), "cantera_final_temperature_K": cantera_temperature,
     }
+    if batch is not None:
+        row.update(benchmark_batch(name, path, mechanism, case, batch, end_time, settings, repeats))
+    return row
 
 
 COLUMNS = (
@@ -103,12 +108,32 @@ COLUMNS = (
 )
 
 
-def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), repeats: int = 5) -> list[dict]:
-    """Print the table and write `bench_kinetics.json` and `bench_kinetics.csv` under `out`."""
-    rows = [benchmark_mechanism(name, repeats) for name in mechanisms]
+BATCH_COLUMNS = (
+    Column("mechanism", "mechanism"), Column("reactors", "batch"),
+    Column("our batch forward ms/reactor", "batch_forward_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
+    Column("the same in sorted groups", "batch_forward_grouped_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
+    Column("our gradient ms/reactor (one at a time)", "batch_gradient_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
+    Column("Cantera serial ms/reactor", "cantera_serial_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
+    Column("forward vs Cantera", "batch_forward_speedup_vs_cantera_serial", lambda v: f"{v:.2f}x"),
+    Column("gradient vs Cantera forward", "batch_gradient_speedup_vs_cantera_serial_forward", lambda v: f"{v:.2f}x"),
+    Column("compile s (forward)", "batch_forward_compile_s", ".0f"),
+    Column("compile s (gradient)", "batch_gradient_compile_s", ".0f"),
+)
+
+
+def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), repeats: int = 5,
+                           batch: int | None = None) -> list[dict]:
+    """Print the table and write `bench_kinetics.json` and `bench_kinetics.csv` under `out`; with
+    `batch`, a second table of the batched solves (the same rows carry its fields)."""
+    rows = [benchmark_mechanism(name, repeats, batch) for name in mechanisms]
     print(f"constant-volume adiabatic ignition to late induction, rtol {RTOL:g} / atol {ATOL:g} (Cantera's "
           f"sensitivities {SENSITIVITY_TOLERANCE:g}); medians after compile")
     print(format_table(rows, COLUMNS))
+    if batch is not None:
+        print(f"{batch} reactors (T0 and P0 spread, see chemistry._batch_bench), our forward solves as one batch, "
+              f"our gradients one reactor at a time, Cantera serially; per reactor, medians of "
+              f"{rows[0]['batch_repeats']} run(s) after an ahead-of-time compile")
+        print(format_table(rows, BATCH_COLUMNS))
     paths = write_table(out, "bench_kinetics", rows)
     print(f"  written: {', '.join(map(str, paths))}")
     return rows

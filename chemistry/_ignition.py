@@ -91,14 +91,19 @@ def solve_ignition(mechanism: Mechanism, concentrations, case: IgnitionCase, tim
     """Our constant-volume adiabatic ignition from `concentrations` [kmol/m^3] at
     `case.temperature`, saved at `times` [s]: an `IgnitionResult`."""
     reactor = Reactor(mechanism, "constant-volume", ("energy",))
-    run = eqx.filter_jit(lambda c: _trajectory_and_delay(reactor, case.temperature, c, times, settings, rise))
+    run = eqx.filter_jit(lambda c: trajectory_and_delay(reactor, case.temperature, c, times, settings, rise))
     trajectory, delay = run(jnp.asarray(concentrations))
     return IgnitionResult(np.asarray(times), np.asarray(trajectory.temperature), float(delay),
                           int(trajectory.solution.stats["num_accepted_steps"]))
 
 
-def _trajectory_and_delay(reactor, temperature, concentrations, times, settings, rise):
-    trajectory = simulate(reactor, temperature, concentrations, times, settings=settings, dense=True)
+def trajectory_and_delay(reactor: Reactor, temperature, concentrations, times, settings: SolverSettings,
+                         rise: float, parameters=None) -> tuple[Trajectory, jax.Array]:
+    """The `simulate` trajectory (dense) from `temperature` [K] and `concentrations` [kmol/m^3]
+    and its ignition delay [s]; any argument but `reactor`, `settings` and `rise` may be traced
+    (`solve_ignition_batch` maps it over conditions)."""
+    trajectory = simulate(reactor, temperature, concentrations, times, parameters=parameters, settings=settings,
+                          dense=True)
     return trajectory, ignition_delay(trajectory, temperature, rise)
 
 

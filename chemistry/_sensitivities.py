@@ -21,11 +21,25 @@ def final_temperature(log_multiplier, mechanism: Mechanism, concentrations, case
                       settings: SolverSettings = REACTOR_SOLVER):
     """T(`time`) [K] of the case's constant-volume adiabatic ignition from `concentrations`
     [kmol/m^3] with the rate multipliers exp(`log_multiplier`) (shape `(n_reactions,)`)."""
-    parameters = eqx.tree_at(lambda p: p.log_multiplier, mechanism.parameters, log_multiplier)
+    return temperature_at(log_multiplier, mechanism, case.temperature, concentrations, time, settings)
+
+
+def temperature_at(log_multiplier, mechanism: Mechanism, temperature, concentrations, time,
+                   settings: SolverSettings = REACTOR_SOLVER):
+    """T(`time`) [K] of a constant-volume adiabatic ignition from `temperature` [K] and
+    `concentrations` [kmol/m^3] (shape `(n_species,)`) with the rate multipliers
+    exp(`log_multiplier`) (shape `(n_reactions,)`); every argument but `mechanism` and
+    `settings` may be traced (`jax.vmap` over conditions: `chemistry.final_temperature_batch`)."""
     reactor = Reactor(mechanism, "constant-volume", ("energy",))
     times = jnp.stack([jnp.zeros(()), jnp.asarray(time, float)])
-    return simulate(reactor, case.temperature, concentrations, times, parameters=parameters,
+    return simulate(reactor, temperature, concentrations, times, parameters=with_multipliers(mechanism, log_multiplier),
                     settings=settings).temperature[-1]
+
+
+def with_multipliers(mechanism: Mechanism, log_multiplier):
+    """The mechanism's rate parameters with the multipliers exp(`log_multiplier`), shape
+    `(n_reactions,)`."""
+    return eqx.tree_at(lambda p: p.log_multiplier, mechanism.parameters, log_multiplier)
 
 
 @eqx.filter_jit

@@ -1,0 +1,123 @@
+"""`snapo bench kinetics --batch N`: N constant-volume adiabatic ignitions from different initial
+states, solved by us as one batch (`final_temperature_batch`, and each reactor's d T / d ln A_i
+from one reverse pass each, `temperature_sensitivities_batch`) and by Cantera one after the
+other, at the single bench's tolerances and to the same time (the case's sensitivity time).
+
+The conditions: T0 uniform in [T_case - 50 K, T_case] and P0 in [0.5, 1] x the case's pressure
+(seed 0), the case's composition, so that every reactor is still in its induction at the end
+time, as the single bench's reactor is (hotter starts ignite before it, and the bench would time
+the burnt gas instead). Our programs are compiled ahead of time (`lower().compile()`, timed as
+the compile) and then run `repeats` times (the median is reported): a gri30 batch of 256 runs
+for minutes, and a warm-up run would double that."""
+
+import statistics
+import time
+
+import numpy as np
+
+from ._batch import IgnitionBatch, temperature_program
+from ._ignition import IgnitionCase
+
+TEMPERATURE_SPAN = 50.0
+"""T0 spans [T_case - TEMPERATURE_SPAN, T_case] [K]."""
+PRESSURE_SPAN = (0.5, 1.0)
+"""P0 spans these fractions of the case's pressure."""
+GROUP_SIZE = 32
+"""Reactors per vmap in the grouped forward run (larger batches only), next to the one-vmap run:
+what grouping conditions sorted by T0 (alike step counts) saves."""
+GRADIENT_SAMPLE = 16
+"""Reactors (evenly spaced through the sorted batch) whose gradients are timed: the reverse passes
+run one reactor at a time (`chemistry._batch` says why), so the time per reactor does not
+depend on N, and 256 gri30 reverse passes would take ~15 minutes."""
+
+
+def batch_conditions(mechanism, case: IgnitionCase, size: int, seed: int = 0) -> IgnitionBatch:
+    """`size` reactors around `case` (see the module docstring), sorted by T0."""
+    rng = np.random.default_rng(seed)
+    temperature = np.sort(case.temperature - TEMPERATURE_SPAN * rng.random(size))
+    pressure = case.pressure * rng.uniform(*PRESSURE_SPAN, size)
+    return IgnitionBatch(mechanism, temperature, pressure, case.composition)
+
+
+def cantera_serial(path, batch: IgnitionBatch, end_time: float, repeats: int, *, rtol: float,
+                   atol: float) -> tuple[float, np.ndarray]:
+    """Median wall time [s] of Cantera's `IdealGasReactor` run to `end_time` [s] for every reactor
+    of `batch`, one after the other (one `Solution`, a new reactor and network each), and T
+    there [K], shape `(N,)`."""
+    import cantera
+
+    solution = cantera.Solution(str(path))
+    conditions = [(float(t), float(p), np.asarray(x)) for t, p, x in
+                  zip(batch.temperature, batch.pressure, batch.mole_fractions)]
+    runs = []
+    for _ in range(max(repeats, 1)):
+        temperatures = []
+        start = time.perf_counter()
+        for condition in conditions:
+            solution.TPX = condition
+            reactor = cantera.IdealGasReactor(solution, clone=False)
+            net = cantera.ReactorNet([reactor])
+            net.rtol, net.atol, net.max_steps = rtol, atol, 200_000
+            net.advance(end_time)
+            temperatures.append(reactor.phase.T)
+        runs.append(time.perf_counter() - start)
+    return statistics.median(runs), np.array(temperatures)
+
+
+def _compiled_and_timed(fn, args: tuple, repeats: int):
+    """Compile `fn` (an `equinox.filter_jit` function) for `args` ahead of time, then run it
+    `repeats` times: (compile seconds, median run seconds, the outputs)."""
+    import jax
+
+    start = time.perf_counter()
+    compiled = fn.lower(*args).compile()
+    compile_seconds = time.perf_counter() - start
+    runs = []
+    for _ in range(max(repeats, 1)):
+        start = time.perf_counter()
+        out = jax.block_until_ready(compiled(*args))
+        runs.append(time.perf_counter() - start)
+    return compile_seconds, statistics.median(runs), out
+
+
+def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, end_time: float, settings,
+                    repeats: int) -> dict:
+    """The batch fields of the kinetics bench's row for mechanism `name`: per-reactor times and
+    throughputs of our batched forward solve (one vmap, and in groups of `GROUP_SIZE` of the
+    conditions sorted by T0), our gradients (one reactor at a time, timed on `GRADIENT_SAMPLE` of
+    them) and Cantera's serial runs."""
+    import jax
+    import jax.numpy as jnp
+
+    batch = batch_conditions(mechanism, case, size)
+    end = jnp.asarray(end_time)
+    group = GROUP_SIZE if size > GROUP_SIZE else None
+    forward_compile, forward, temperature = _compiled_and_timed(
+        temperature_program, (mechanism, batch, end, settings, None, False), repeats)
+    grouped_compile, grouped, _ = _compiled_and_timed(
+        temperature_program, (mechanism, batch, end, settings, group, False), repeats) if group else (None,) * 3
+    sample = jax.tree.map(lambda x: x[np.linspace(0, size - 1, min(size, GRADIENT_SAMPLE)).astype(int)], batch)
+    gradient_compile, gradient, _ = _compiled_and_timed(
+        temperature_program, (mechanism, sample, end, settings, 1, True), repeats)
+    cantera, cantera_temperature = cantera_serial(path, batch, end_time, repeats, rtol=settings.rtol,
+                                                  atol=settings.atol)
+    forward, gradient, cantera = forward / size, gradient / sample.size, cantera / size  # per reactor
+    grouped = grouped and grouped / size
+    errors = np.abs(np.asarray(temperature) / cantera_temperature - 1)
+    return {
+        "batch": size, "batch_group_size": group or size,
+        "batch_temperature_min_K": float(batch.temperature.min()),
+        "batch_temperature_max_K": float(batch.temperature.max()),
+        "batch_pressure_min_Pa": float(batch.pressure.min()), "batch_pressure_max_Pa": float(batch.pressure.max()),
+        "batch_forward_s_per_reactor": forward, "batch_forward_reactors_per_s": 1 / forward,
+        "batch_forward_compile_s": forward_compile,
+        "batch_forward_grouped_s_per_reactor": grouped, "batch_forward_grouped_compile_s": grouped_compile,
+        "batch_gradient_s_per_reactor": gradient, "batch_gradient_reactors_per_s": 1 / gradient,
+        "batch_gradient_compile_s": gradient_compile, "batch_gradient_reactors": sample.size,
+        "cantera_serial_s_per_reactor": cantera, "cantera_serial_reactors_per_s": 1 / cantera,
+        "batch_forward_speedup_vs_cantera_serial": cantera / forward,
+        "batch_forward_grouped_speedup_vs_cantera_serial": grouped and cantera / grouped,
+        "batch_gradient_speedup_vs_cantera_serial_forward": cantera / gradient,
+        "batch_max_relative_difference_vs_cantera": float(np.max(errors)),
+        "batch_repeats": max(repeats, 1),
+    }
