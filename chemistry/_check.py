@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm import tqdm
 
-from snapo_ode import InputError, Result, SolverFailed, check_count, check_range
+from snapo_ode import InputError, Result, SolverFailed, call_checked, check_count, check_range, exported
 
 from ._crosscheck import compare_rates
 from ._ignition import IGNITION_CASES, IgnitionCase, cantera_ignition, initial_concentrations, solve_ignition
@@ -21,6 +21,9 @@ GAS_TEMPERATURES = (300.0, 2500.0)
 CONDENSED_TEMPERATURES = (280.0, 400.0)
 """Random-state temperature ranges [K]: a liquid mechanism's thermo is fitted near ambient."""
 _SENSITIVITY_SETTINGS = REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14)
+_exported_sensitivities = exported(temperature_sensitivities, name="kinetics-temperature-sensitivities")
+"""The reverse pass, traced once and kept on disk (`snapo_ode.exported`): gri30's took ~46-68 s
+to trace and compile in every process."""
 
 
 def default_case(mechanism: Mechanism, path: str | Path) -> IgnitionCase | None:
@@ -166,13 +169,14 @@ def check_against_cantera(path: str | Path, *, phase: str | None = None, n_state
         stages.close()
         return KineticsCheck(**result)
     time = case.sensitivity_time if np.isfinite(case.sensitivity_time) else 0.9 * reference.delay
-    ours_sensitivity, _ = temperature_sensitivities(mechanism, jnp.asarray(concentrations), case, time,
-                                                    _SENSITIVITY_SETTINGS)
-    if not np.all(np.isfinite(np.asarray(ours_sensitivity))):
+    try:
+        ours_sensitivity, _ = call_checked(_exported_sensitivities, mechanism, jnp.asarray(concentrations), case,
+                                           float(time), _SENSITIVITY_SETTINGS, what="d ln T / d ln A")
+    except SolverFailed as failure:
         raise SolverFailed(f"the reverse pass for d ln T / d ln A at t = {time:g} s gave non-finite values, although "
                            f"the ignition itself solved (delay {ours.delay:g} s, as Cantera's). A known limit close "
                            "to a fast front (h2o2 from 2500 K late in the induction): give an earlier "
-                           "--sensitivity-time, or --no-sensitivities.")
+                           "--sensitivity-time, or --no-sensitivities.") from failure
     cantera_sensitivity, _ = cantera_sensitivities(path, case, time, phase=phase)
     comparison = compare_sensitivities(ours_sensitivity, cantera_sensitivity, top=min(top, mechanism.n_reactions))
     result["sensitivities"] = {

@@ -3,6 +3,7 @@
 Heavy imports (JAX, Cantera, the model) happen inside the handlers, so `snapo --help` stays quick.
 """
 
+import importlib.util
 import pathlib
 
 from snapo_ode.cli import CommandLine
@@ -83,3 +84,6 @@ def register_kinetics(cli: CommandLine) -> None:
                        "serially (gri30 with N = 256 and --repeats 1: ~15 minutes on 2 cores)")
     bench.set_defaults(handler=run_bench)
     cli.accuracy("stiff", stiff_accuracy)
+    data = pathlib.Path(importlib.util.find_spec("cantera").origin).parent / "data"  # without importing Cantera
+    cli.first_result("kinetics check", ["kinetics", "check", str(data / "h2o2.yaml")])
+    cli.first_result("gri30 gradient", ["kinetics", "check", str(data / "gri30.yaml"), "--states", "1"])

@@ -3,7 +3,8 @@
 A plugin is a function `register(cli: CommandLine) -> None` that adds its verbs with
 `cli.command(name, help)`, `cli.bench(name, help)` and `cli.report(name, help)`; each returns an
 `argparse.ArgumentParser` whose `handler` default (`parser.set_defaults(handler=fn)`) is called
-with the parsed arguments. `cli.accuracy(name, run)` adds a study to `snapo bench accuracy`, which
+with the parsed arguments. `cli.first_result(name, argv)` adds a command line to `snapo bench
+first-result` (cold and warm time to its result, each in a new process). `cli.accuracy(name, run)` adds a study to `snapo bench accuracy`, which
 runs every registered study (`--only NAME`, `--quick`), each in a `snapo` process of its own
 unless `--in-process`, and writes one page of them (`snapo_ode.write_accuracy`). The core itself never imports a domain.
 
@@ -37,6 +38,7 @@ import sys
 from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
 
+from ._first_result import add_first_result_bench
 from ._validation import InputError
 
 PLUGIN_GROUP = "snapo_ode.plugins"
@@ -160,6 +162,8 @@ class CommandLine:
         scaling.add_argument("--repeats", type=int, default=5, help="timed runs after the compile (default 5)")
         add_device_options(scaling)
         scaling.set_defaults(handler=self._run_scaling)
+        self.first_results: dict[str, list[str]] = {}
+        add_first_result_bench(self)
 
     def command(self, name: str, help: str, *, group: "argparse._SubParsersAction | None" = None,
                 json_name: str | None = None) -> argparse.ArgumentParser:
@@ -241,6 +245,11 @@ class CommandLine:
             print(f"snapo: error: the run on {count} devices failed (exit {code}); the table holds the others",
                   file=sys.stderr)
         return next(iter(failed.values()), 0)
+
+    def first_result(self, name: str, argv: Sequence[str]) -> None:
+        """Add a workload to `snapo bench first-result`: `argv`, a `snapo` command line, timed
+        from a new process's start to its exit, cold and warm (see `snapo_ode._first_result`)."""
+        self.first_results[name] = list(argv)
 
     def report(self, name: str, help: str) -> argparse.ArgumentParser:
         """A report: `snapo report NAME ...`, written into `--out` (default `snapo-out/NAME-report`)."""

@@ -160,8 +160,8 @@ def device_scaling(args):
 
 def register_pharma(cli) -> None:
     """Add `snapo pharma sensitivities|train|design-space`, `snapo bench pharma`,
-    `snapo report pharma`, the "gradients" study of `snapo bench accuracy` and the "pharma"
-    workload of `snapo bench scaling`."""
+    `snapo report pharma`, the "gradients" study of `snapo bench accuracy`, the "pharma"
+    workload of `snapo bench scaling` and two of `snapo bench first-result`."""
     pharma = cli.group("pharma", "the 4-unit API chain: ICH Q8 sensitivities of the CQAs to the CPPs "
                        "and to every kinetic and physical parameter")
     sens = cli.command("sensitivities", "the 5x4 dCQA/dCPP matrix and every parameter sensitivity, checked "
@@ -206,3 +206,5 @@ def register_pharma(cli) -> None:
     bench.set_defaults(handler=run_bench)
     cli.accuracy("gradients", gradient_accuracy)
     cli.scaling("pharma", device_scaling)
+    cli.first_result("pharma sensitivities", ["pharma", "sensitivities"])
+    cli.first_result("report pharma", ["report", "pharma", "--no-pdf"])
