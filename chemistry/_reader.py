@@ -9,7 +9,7 @@ from ._equation import Equation, parse_equation
 from ._rate_laws import BlowersMasel, Falloff, Orders, RateParameters, ThirdBodies
 from ._rate_reader import (arrhenius, blowers_masel, chebyshev_fit, plog_table, sri_parameters, stack_chebyshev,
                            stack_plog, troe_parameters, tsang_parameters)
-from ._sources import Sources, find_file, load, phase_species, section_names
+from ._sources import Sources, find_file, load, naming, phase_species, section_names
 from ._thermo_reader import molar_volumes, species_thermo
 from ._units import ONE_ATM
 
@@ -243,11 +243,12 @@ def read_mechanism(cls, path, phase=None):
             source, nodes = sources.section(reference)
             for node in nodes:
                 where, index = source.where(node), len(reactions)
-                equation = _equation(f"{where}: reaction {index} ({node['equation']})", node, species,
-                                     which == "declared", skip_third_bodies)
-                if equation is not None:
-                    reactions.append(_Reaction(where, index, node, equation, species, source.units, basis != "unity",
-                                               skip_third_bodies))
+                label = f"{where}: reaction {index} ({node.get('equation')})"
+                with naming(label):
+                    equation = _equation(label, node, species, which == "declared", skip_third_bodies)
+                    if equation is not None:
+                        reactions.append(_Reaction(where, index, node, equation, species, source.units,
+                                                   basis != "unity", skip_third_bodies))
     if thermo_model != "ideal-gas" and any(r.reversible for r in reactions):
         first = next(r for r in reactions if r.reversible)
         raise InputError(f"{first.where}: reaction {first.index} ({first.equation}) is reversible in an "

@@ -2,6 +2,7 @@
 (`gri30.yaml/species: [H2, O2]`), each with its own units, and the species nodes the phase
 selects, as Cantera selects them."""
 
+from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
@@ -23,6 +24,18 @@ class Source(NamedTuple):
         """`path:line` of `node` in this file (the path alone where the line is unknown)."""
         line = getattr(getattr(node, "lc", None), "line", None)
         return f"{self.path}:{line + 1}" if line is not None else str(self.path)
+
+
+@contextmanager
+def naming(label: str):
+    """Inside it, a node of the wrong shape (a KeyError, TypeError, ... from reading it) raises an
+    `InputError` that names `label` (file, line and what the node is) instead."""
+    try:
+        yield
+    except InputError:
+        raise
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
+        raise InputError(f"{label}: malformed or unsupported content ({type(error).__name__}: {error}).") from error
 
 
 def load(path: Path) -> Source:
@@ -138,7 +151,8 @@ def phase_species(sources: Sources, phase_node) -> list[tuple[Source, dict]]:
         by_name = {str(node["name"]): node for node in nodes}
         for name in list(by_name) if names == "all" else [str(name) for name in names]:
             if name not in by_name:
-                raise InputError(f"species {name!r} of phase {phase!r} is not in section {reference!r}.")
+                raise InputError(f"{sources.main.where(phase_node)}: species {name!r} of phase {phase!r} is not in "
+                                 f"section {reference!r}.")
             node = by_name[name]
             undeclared = sorted(set(node.get("composition") or {}) - set(elements)) if elements is not None else []
             if undeclared:

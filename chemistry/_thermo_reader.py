@@ -7,7 +7,7 @@ import numpy as np
 
 from snapo_ode import InputError
 
-from ._sources import Source
+from ._sources import Source, naming
 from ._thermo import Nasa9, SpeciesThermo
 from ._units import GAS_CONSTANT
 
@@ -62,32 +62,32 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
     t0, h0, s0, cp0 = np.full(n, 298.15), np.zeros(n), np.zeros(n), np.zeros(n)
     nasa9_index, nasa9 = [], []
     for k, (source, node) in enumerate(species_nodes):
-        name, units = node["name"], source.units.within(node)
-        label = f"{source.where(node)}: species {name!r}:"
-        thermo = node.get("thermo")
-        model = thermo.get("model") if thermo else None
-        if model == "NASA7":
-            ranges, data = _polynomials(label, thermo, model, 7)
-            is_nasa[k] = True
-            low[k] = data[0]
-            high[k] = data[-1]
-            t_mid[k] = ranges[1] if len(data) == 2 else ranges[-1]
-        elif model == "NASA9":
-            nasa9_index.append(k)
-            nasa9.append(_polynomials(label, thermo, model, 9))
-        elif model == "Shomate":
-            nasa9_index.append(k)
-            nasa9.append(_shomate_as_nasa9(*_polynomials(label, thermo, model, 7)))
-        elif model == "constant-cp":
-            units = units.within(thermo)
-            t0[k] = units.convert(f"species {name} T0", thermo.get("T0", 298.15), "temperature")
-            energy = "energy/quantity"
-            h0[k] = units.convert(f"species {name} h0", thermo.get("h0", 0.0), energy) / GAS_CONSTANT
-            s0[k] = units.convert(f"species {name} s0", thermo.get("s0", 0.0), energy + "/temperature") / GAS_CONSTANT
-            cp0[k] = units.convert(f"species {name} cp0", thermo.get("cp0", 0.0), energy + "/temperature") / GAS_CONSTANT
-        else:
-            raise InputError(f"{source.where(node)}: species {name!r} has thermo model {model!r}; "
-                             f"supported: {_MODELS}.")
+        with naming(f"{source.where(node)}: species {node.get('name')!r}"):
+            name, units = node["name"], source.units.within(node)
+            label = f"{source.where(node)}: species {name!r}:"
+            thermo = node.get("thermo")
+            model = thermo.get("model") if thermo else None
+            if model == "NASA7":
+                ranges, data = _polynomials(label, thermo, model, 7)
+                is_nasa[k] = True
+                low[k] = data[0]
+                high[k] = data[-1]
+                t_mid[k] = ranges[1] if len(data) == 2 else ranges[-1]
+            elif model == "NASA9":
+                nasa9_index.append(k)
+                nasa9.append(_polynomials(label, thermo, model, 9))
+            elif model == "Shomate":
+                nasa9_index.append(k)
+                nasa9.append(_shomate_as_nasa9(*_polynomials(label, thermo, model, 7)))
+            elif model == "constant-cp":
+                units = units.within(thermo)
+                t0[k] = units.convert(f"species {name} T0", thermo.get("T0", 298.15), "temperature")
+                for values, key, dimension in ((h0, "h0", "energy/quantity"), (s0, "s0", "energy/quantity/temperature"),
+                                               (cp0, "cp0", "energy/quantity/temperature")):
+                    values[k] = units.convert(f"species {name} {key}", thermo.get(key, 0.0), dimension) / GAS_CONSTANT
+            else:
+                raise InputError(f"{source.where(node)}: species {name!r} has thermo model {model!r}; "
+                                 f"supported: {_MODELS}.")
     return SpeciesThermo(jnp.asarray(is_nasa), jnp.asarray(t_mid), jnp.asarray(low), jnp.asarray(high),
                          jnp.asarray(t0), jnp.asarray(h0), jnp.asarray(s0), jnp.asarray(cp0),
                          _stack_nasa9(nasa9_index, nasa9))
@@ -118,21 +118,22 @@ def molar_volumes(species_nodes: list[tuple[Source, dict]]) -> np.ndarray:
     **Raises:** `InputError` naming the file, line and species without one of them."""
     volumes = np.zeros(len(species_nodes))
     for k, (source, node) in enumerate(species_nodes):
-        name, units = node["name"], source.units.within(node)
-        eos = node.get("equation-of-state") or {}
-        # Cantera also takes a list of models and uses the constant-volume one.
-        eos = next((e for e in eos if e.get("model") == "constant-volume"), {}) if isinstance(eos, list) else eos
-        if eos.get("model") != "constant-volume" or not {"density", "molar-density", "molar-volume"} & set(eos):
-            raise InputError(f"{source.where(node)}: species {name!r} needs an equation-of-state {{model: "
-                             "constant-volume, molar-volume (or molar-density, or density): ...}} in an "
-                             "ideal-condensed phase.")
-        units = units.within(eos)
-        if "density" in eos:
-            volumes[k] = _molecular_weight(source, node) / units.convert(f"species {name} density", eos["density"],
-                                                                         "mass/length^3")
-        elif "molar-density" in eos:
-            volumes[k] = 1.0 / units.convert(f"species {name} molar-density", eos["molar-density"],
-                                             "quantity/length^3")
-        else:
-            volumes[k] = units.convert(f"species {name} molar-volume", eos["molar-volume"], "length^3/quantity")
+        with naming(f"{source.where(node)}: species {node.get('name')!r}"):
+            name, units = node["name"], source.units.within(node)
+            eos = node.get("equation-of-state") or {}
+            # Cantera also takes a list of models and uses the constant-volume one.
+            eos = next((e for e in eos if e.get("model") == "constant-volume"), {}) if isinstance(eos, list) else eos
+            if eos.get("model") != "constant-volume" or not {"density", "molar-density", "molar-volume"} & set(eos):
+                raise InputError(f"{source.where(node)}: species {name!r} needs an equation-of-state {{model: "
+                                 "constant-volume, molar-volume (or molar-density, or density): ...}} in an "
+                                 "ideal-condensed phase.")
+            units = units.within(eos)
+            if "density" in eos:
+                volumes[k] = _molecular_weight(source, node) / units.convert(f"species {name} density", eos["density"],
+                                                                             "mass/length^3")
+            elif "molar-density" in eos:
+                volumes[k] = 1.0 / units.convert(f"species {name} molar-density", eos["molar-density"],
+                                                 "quantity/length^3")
+            else:
+                volumes[k] = units.convert(f"species {name} molar-volume", eos["molar-volume"], "length^3/quantity")
     return volumes

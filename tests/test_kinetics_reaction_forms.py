@@ -139,6 +139,17 @@ def _reaction(body: str) -> str:
         textwrap.dedent(body), "  ")
 
 
+def test_a_malformed_reaction_names_its_file_line_and_reaction(tmp_path):
+    path = _write(tmp_path, _reaction("type: falloff\nhigh-P-rate-constant: {A: 1.0e+13, b: 0, Ea: 0}\n"
+                                      "low-P-rate-constant: {A: 1.0e+19, b: 0, Ea: 0}\nTroe: {T3: 100, T1: 1000}\n")
+                  .replace("H + O2 <=> O + OH", "H + O2 (+M) <=> HO2 (+M)"))
+    with pytest.raises(cantera.CanteraError):
+        cantera.Solution(str(path))
+    with pytest.raises(InputError, match=r"phase.yaml:9: reaction 0 \(H \+ O2 \(\+M\) <=> HO2 \(\+M\)\): malformed .*"
+                                         r"KeyError: 'A'"):
+        Mechanism.from_yaml(path)
+
+
 @pytest.mark.parametrize(("body", "message"), [
     ("rate-constant: [1.0e+13]\n", r"rate constant written as a list is \[A, b, Ea\], the first 2 required"),
     ("rate-constant: [1.0e+13, 0.0, 0.0, 1.0, 2.0]\n", r"\[A, b, Ea\], the first 2 required"),

@@ -151,6 +151,14 @@ def test_a_yaml_syntax_error_names_the_file(tmp_path):
         Mechanism.from_yaml(path)
 
 
+def test_a_malformed_species_names_its_file_line_and_name(tmp_path):
+    text = SHOMATE.replace("    temperature-ranges: [500.0, 1700.0]\n", "")
+    with pytest.raises(cantera.CanteraError):
+        cantera.Solution(str(_write(tmp_path, text)))
+    with pytest.raises(InputError, match=r"phase.yaml:\d+: species 'H2O': malformed .*'temperature-ranges'"):
+        Mechanism.from_yaml(_write(tmp_path, text))
+
+
 def test_density_and_molar_density_give_cantera_molar_volumes_and_rates(tmp_path):
     # pharma.yaml with A by density (custom element Y, 50 kg/kmol), S (ethanol, C2H6O: Cantera's
     # atomic weights) by density in g/cm^3, P by molar density, and I by a list of models.
