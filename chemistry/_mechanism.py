@@ -189,7 +189,10 @@ class Mechanism(eqx.Module):
 
     def _net_production(self, temperature, concentrations, parameters: RateParameters):
         forward, reverse = self._rates(temperature, concentrations, parameters)
-        return forward @ self.net_stoichiometry - reverse @ self.net_stoichiometry[self.reversible_index]
+        # One product with the forward and reverse stoichiometry stacked, not two: each matrix
+        # product is an operation of its own on the CPU (a vector-field evaluation is ~20 of them).
+        stoichiometry = jnp.concatenate([self.net_stoichiometry, self.net_stoichiometry[self.reversible_index]])
+        return jnp.concatenate([forward, -reverse]) @ stoichiometry
 
     def concentration_jacobian(self, temperature, concentrations, parameters: RateParameters | None = None):
         """d (net production rates) / d concentrations [1/s], shape `(n_species, n_species)`, in

@@ -34,10 +34,12 @@ REACTOR_EFFECTS = EffectCatalogue(
 ReactorKind = Literal["constant-volume", "constant-pressure"]
 
 
-REACTOR_SOLVER = SolverSettings(atol=1e-11, root_finder="chord")
-"""The reactors' default `snapo_ode.SolverSettings`: Rodas4 at rtol 1e-8 / atol 1e-11 on the
+REACTOR_SOLVER = SolverSettings(atol=1e-11, root_finder="chord", solver="rodas5")
+"""The reactors' default `snapo_ode.SolverSettings`: Rodas5 at rtol 1e-8 / atol 1e-11 on the
 scaled state [T / T0, N_k / N_total0], 20,000 steps at most; for Kvaerno5, the chord root finder
-(Newton takes fewer steps before an ignition but stalls after the front)."""
+(Newton takes fewer steps before an ignition but stalls after the front). Rodas5 rather than
+Rodas4: h2o2 ignition to 0.27 ms at rtol 1e-10 takes it 201 + 38 steps against 649 + 41, and ends
+nearer the converged temperature (6e-6 K off against 1.3e-5 K); 5x faster."""
 
 
 class Reactor(eqx.Module):
@@ -178,16 +180,29 @@ def scaled_problem(reactor: Reactor, temperature, concentrations, volume=1.0,
     amounts0 = jnp.asarray(concentrations, float) * volume
     amount_scale = jnp.sum(amounts0)
     energy = reactor.scene.has("energy")
+    n_scaled = amounts0 / amount_scale
+    state0 = jnp.concatenate([jnp.ones(1), n_scaled]) if energy else n_scaled
 
     def energy_field(t_scaled, n_scaled):
         d_t, d_n = reactor.time_derivatives(t_scaled * temperature, n_scaled * amount_scale, volume, parameters)
         return jnp.concatenate([(d_t / temperature)[None], d_n / amount_scale])
 
-    def vector_field(t, state, args):
+    def field(state):
         if energy:
             return energy_field(state[0], state[1:])
         _, d_n = reactor.time_derivatives(temperature, state * amount_scale, volume, parameters)
         return d_n / amount_scale
+
+    def vector_field(t, state, args):
+        # A trial step that overshoots (it is rejected afterwards) can reach a state without
+        # meaning: T <= 0 (log T is NaN) or NaN from an earlier stage. There the field is NaN,
+        # which rejects the step, and it is evaluated at the initial state, so that the reverse
+        # pass through the rejected step meets no 0 * NaN (measured: Rodas5's first trial step
+        # of a gri30 ignition, the whole interval, made every gradient NaN).
+        valid = jnp.isfinite(jnp.sum(state))
+        if energy:
+            valid = valid & (state[0] > 0.0)
+        return jnp.where(valid, field(jnp.where(valid, state, state0)), jnp.nan)
 
     def energy_jacobian(t, state, args):
         """d(vector_field)/d(state): one tangent for the temperature, one per amount."""
@@ -196,8 +211,6 @@ def scaled_problem(reactor: Reactor, temperature, concentrations, volume=1.0,
         by_amounts = jax.jacfwd(lambda n: energy_field(t_scaled, n))(n_scaled)
         return jnp.concatenate([by_temperature[:, None], by_amounts], axis=1)
 
-    n_scaled = amounts0 / amount_scale
-    state0 = jnp.concatenate([jnp.ones(1), n_scaled]) if energy else n_scaled
     return ScaledProblem(vector_field, energy_jacobian if energy else None, state0, temperature, amount_scale)
 
 

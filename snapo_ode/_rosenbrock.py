@@ -106,7 +106,10 @@ def _solve_jvp(primals, tangents):
     factors, matrix, rhs = primals
     _, matrix_dot, rhs_dot = tangents
     solution = jsl.lu_solve(factors, rhs)
-    return solution, jsl.lu_solve(factors, rhs_dot - matrix_dot @ solution)
+    # A rejected trial step may solve for NaN; its cotangent is 0, and 0 * NaN would reach the
+    # matrix (the step's Jacobian) in a reverse pass. A finite solution is used as it is.
+    finite = jnp.where(jnp.isfinite(solution), solution, 0.0)
+    return solution, jsl.lu_solve(factors, rhs_dot - matrix_dot @ finite)
 
 
 class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
