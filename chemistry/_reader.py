@@ -127,6 +127,9 @@ class _Reaction:
                 raise InputError(f"{label}: orders names species {name!r}, which is not in the phase.")
             if name not in eq.reactants and not node.get("nonreactant-orders", False):
                 raise InputError(f"{label}: orders names non-reactant {name!r}; set nonreactant-orders: true.")
+            if float(order) < 0 and not node.get("negative-orders", False):
+                raise InputError(f"{label}: orders gives {name!r} the negative order {order}; allowed only with "
+                                 "negative-orders: true, as in Cantera.")
             self.orders[name] = float(order)
         # Cantera counts a third body in the rate constant's units where it is written '+ M' (or
         # '+ AR'), not where it is written '(+M)'; a Chebyshev reaction's it then ignores.

@@ -139,6 +139,18 @@ def _reaction(body: str) -> str:
         textwrap.dedent(body), "  ")
 
 
+def test_a_negative_order_needs_negative_orders_as_in_cantera(tmp_path):
+    body = "rate-constant: {A: 1.0e+13, b: 0, Ea: 0}\norders: {H: 1.0, O2: -0.5}\n"
+    path = _write(tmp_path, _reaction(body).replace("H + O2 <=> O + OH", "H + O2 => O + OH"))
+    with pytest.raises(cantera.CanteraError):
+        cantera.Solution(str(path))
+    with pytest.raises(InputError, match=r"reaction 0 .*'O2' the negative order -0.5; allowed only with negative-orders"):
+        Mechanism.from_yaml(path)
+    path.write_text(path.read_text() + "  negative-orders: true\n")
+    rates = compare_rates(Mechanism.from_yaml(path), path, n_states=10)
+    assert max(rates.rates_of_progress, rates.net_production) <= 1e-10, rates
+
+
 def test_a_malformed_reaction_names_its_file_line_and_reaction(tmp_path):
     path = _write(tmp_path, _reaction("type: falloff\nhigh-P-rate-constant: {A: 1.0e+13, b: 0, Ea: 0}\n"
                                       "low-P-rate-constant: {A: 1.0e+19, b: 0, Ea: 0}\nTroe: {T3: 100, T1: 1000}\n")
