@@ -84,15 +84,18 @@ def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mes
     """As `jacobian_function`, for many points at once: a function of a sequence of inputs ->
     a list of (CQAs (5,), Jacobian (5, n)) as NumPy arrays. With a samples `mesh`, the points go
     to this process's devices of it, one per device at a time, dispatched together (JAX runs
-    them at once); without, one after another. Not through `shard_map`: the reverse pass of
+    them at once); without, one after another, through the program on disk (`jacobian_function`).
+    Not through `shard_map`: the reverse pass of
     equinox's checkpointed while loop refuses to run inside it ("Closure-converted function
     called with different dynamic arguments")."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
     devices = [None] if mesh is None else [d for d in mesh.devices.flat if d.process_index == jax.process_index()]
 
+    program = _exported_values_and_jacobian if mesh is None else _values_and_jacobian
+
     def on_devices(group):
-        return [_values_and_jacobian(chain, inputs if device is None else jax.device_put(inputs, device),
-                                     with_parameters, mode) for inputs, device in zip(group, devices)]
+        return [program(chain, inputs if device is None else jax.device_put(inputs, device), with_parameters, mode)
+                for inputs, device in zip(group, devices)]
 
     def evaluate_many(points):
         results = []
@@ -138,11 +141,16 @@ def _shifted_cqas(chain: PharmaChain, inputs: ChainInputs, shifts, mesh):
     return per_sample(rows, mesh, (spec(), spec(), spec(SAMPLES)))(chain, flat, shifts)
 
 
+_exported_shifted_cqas = exported(_shifted_cqas, name="pharma-shifted-cqas")
+
+
 def shifted_cqas(chain: PharmaChain, inputs: ChainInputs, shifts, mesh=None) -> np.ndarray:
     """The CQAs at the flattened inputs + each row of `shifts` (shape (m, n)), in one vmapped,
     cacheable call; shape (m, 5). With a samples `mesh` the rows split over its devices (padded
-    with zero shifts to a multiple of the device count). Raises `SolverFailed` if any solve failed."""
-    out = call_checked(_shifted_cqas, chain, inputs, placed_shifts(shifts, mesh), mesh, what="the shifted chains")
+    with zero shifts to a multiple of the device count); without, the program is kept on disk for
+    each shape of `shifts` (`snapo_ode.exported`). Raises `SolverFailed` if any solve failed."""
+    program = _exported_shifted_cqas if mesh is None else _shifted_cqas
+    out = call_checked(program, chain, inputs, placed_shifts(shifts, mesh), mesh, what="the shifted chains")
     return to_host(out)[:len(shifts)]
 
 
