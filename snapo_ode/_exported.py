@@ -209,13 +209,33 @@ def exported(fn: Callable, *, name: str, static=None) -> Callable:
     static_key = describe(static, values=True)
     packages = _packages(static_key) | {(getattr(fn, "__module__", None) or "snapo_ode").split(".")[0]}
 
-    def call(*args):
+    recent: dict = {}  # (structure, leaf ids, settings) -> (the leaves, kept alive so ids stay theirs; path)
+
+    def entry(args) -> pathlib.Path | None:
         try:
             arguments = describe(args)
-            path = entry_path(name, {"name": name, "static": static_key, "args": arguments,
+            return entry_path(name, {"name": name, "static": static_key, "args": arguments,
                                      "environment": environment(packages | _packages(arguments))})
         except Unkeyable:
-            path = None
+            return None
+
+    def call(*args):
+        # Describing a model's every leaf costs milliseconds: a repeated call with the very same
+        # objects (immutable leaves, the structure compared whole) reuses its entry.
+        every, structure = jax.tree.flatten(args)
+        settings = (jax.config.jax_enable_x64, str(jax.config.jax_default_matmul_precision),
+                    getattr(equinox_errors, "EQX_ON_ERROR", None), jax.config.jax_compilation_cache_dir)
+        try:
+            memo = (structure, tuple(map(id, every)), settings)
+            path = recent[memo][1] if memo in recent else None
+        except TypeError:  # an unhashable static leaf
+            memo = path = None
+        if path is None:
+            path = entry(args)
+            if memo is not None:
+                recent[memo] = (every, path)
+                if len(recent) > 16:
+                    recent.pop(next(iter(recent)))
         if path is None:
             return eqx.filter_jit(fn)(*args)
         dynamic, static_part = eqx.partition(args, eqx.is_array)
