@@ -57,6 +57,13 @@ def test_the_batch_concentrations_are_cantera_s(batch):
         np.testing.assert_allclose(batch.concentrations[i], solution.concentrations, rtol=1e-14, atol=0)
 
 
+def test_sorting_a_batch_moves_every_field_of_a_reactor_together(batch):
+    ordered, order = batch.sorted_by(batch.temperature)
+    assert list(order) == [2, 1, 0, 3]
+    for field in ("temperature", "pressure", "mole_fractions", "log_multiplier"):
+        np.testing.assert_array_equal(getattr(ordered, field), np.asarray(getattr(batch, field))[order])
+
+
 def test_batched_temperatures_equal_single_solves(mechanism, batch):
     batched = np.asarray(final_temperature_batch(mechanism, batch, TIME, settings=SETTINGS))
     single = eqx.filter_jit(temperature_at)
