@@ -7,7 +7,10 @@ Each reactor keeps its own adaptive step: under `jax.vmap`, Diffrax's while loop
 slowest reactor of the group has finished (the others' steps are computed and discarded), so a
 batch costs about (its largest step count) x (its size) single steps. `group_size` solves the
 batch in groups of that many (`jax.lax.map(..., batch_size=group_size)`): conditions sorted by
-expected difficulty then waste less.
+expected difficulty then waste less (`IgnitionBatch.sorted_by`). Measured by `snapo bench kinetics
+--batch 256` on gri30 (T0 1450-1500 K, P0 0.5-1 atm, to 1 ms, rtol 1e-10; a shared 2-core
+machine): 447 ms a reactor as one vmap, 168 ms in groups of 32 sorted by T0; Cantera serially
+10 ms. Batching does not amortise much on a CPU: a vmapped step costs about N single steps.
 
 Why the gradient is not vmapped: a reactor that has finished goes on through the loop's masked
 steps with a zero step size, where `snapo_ode.Rodas4` forms I / (gamma h) - J = inf and its
