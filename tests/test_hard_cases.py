@@ -41,21 +41,17 @@ def test_a_non_finite_result_is_refused_naming_the_field(tmp_path):
     assert json.loads(Toy(1.0, [2.0]).write_json(tmp_path / "toy.json").read_text()) == {"value": 1.0, "curve": [2.0]}
 
 
-def test_h2o2_sensitivities_from_1800_K_are_finite_and_match_cantera(tmp_path):
+# 2500 K failed loudly (non-finite reverse pass near the fast front) until the reactors moved to
+# Rodas5 with rejected trial steps kept out of the gradient; now it must hold like 1800 K.
+@pytest.mark.parametrize("temperature", ["1800", "2500"])
+def test_h2o2_sensitivities_from_hot_starts_are_finite_and_match_cantera(tmp_path, temperature):
     out = tmp_path / "check.json"
-    assert main(["kinetics", "check", H2O2, "--temperature", "1800", "--states", "5", "--json", str(out),
+    assert main(["kinetics", "check", H2O2, "--temperature", temperature, "--states", "5", "--json", str(out),
                  "--no-progress"]) == 0
     sensitivities = json.loads(out.read_text())["sensitivities"]
-    assert not sensitivities["after_ignition"]  # 0.9 x the 0.0117 ms delay, not the 1000 K case's 0.27 ms
+    assert not sensitivities["after_ignition"]  # 0.9 x the delay (0.0117 ms at 1800 K), not the 1000 K case's 0.27 ms
     assert sensitivities["max_relative_difference"] < 1e-3 and sensitivities["same_ranking"]
     assert np.all(np.isfinite([row["ours"] for row in sensitivities["top"]]))
-
-
-def test_h2o2_from_2500_K_late_in_the_induction_fails_loudly(tmp_path, capsys):
-    out = tmp_path / "check.json"
-    assert main(["kinetics", "check", H2O2, "--temperature", "2500", "--states", "5", "--json", str(out),
-                 "--no-progress"]) == 3
-    assert "non-finite" in capsys.readouterr().err and not out.exists()
 
 
 def _robertson(t, y, k):
