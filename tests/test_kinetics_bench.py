@@ -1,22 +1,9 @@
-"""`snapo bench kinetics` runs end to end at a small size, and its two solvers agree on the
-temperature they are timed to (the timings themselves live in the benchmark, not here); `snapo
-kinetics check` uses the case it is given."""
+"""`snapo kinetics check` uses the case it is given. (`snapo bench kinetics` runs end to end, single
+and batched, in test_kinetics_batch.py: one run of the bench serves both.)"""
 
 import json
 
 from snapo_ode.cli import main
-
-
-def test_bench_kinetics_writes_a_row_with_both_solvers(tmp_path):
-    assert main(["bench", "kinetics", "--out", str(tmp_path), "--mechanisms", "h2o2", "--repeats", "1"]) == 0
-    (row,) = json.loads((tmp_path / "bench_kinetics.json").read_text())["rows"]
-    assert row["mechanism"] == "h2o2" and row["parameters"] == 29
-    # Equal tolerances, not equal errors: Cantera's atol 1e-14 is on mass fractions (ours on
-    # amounts over the initial total): its T here is 2.7e-6 off its converged value (rtol 1e-12,
-    # atol 1e-20: 1008.03118 K), ours 1.5e-7.
-    assert abs(row["final_temperature_K"] / row["cantera_final_temperature_K"] - 1) < 1e-5
-    assert all(row[key] > 0 for key in ("forward_s", "gradient_s", "cantera_forward_s", "cantera_sensitivities_s"))
-    assert (tmp_path / "bench_kinetics.csv").read_text().count("\n") == 2
 
 
 def test_kinetics_check_applies_the_case_flags_without_a_mixture(tmp_path, capsys):
