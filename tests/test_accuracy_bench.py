@@ -57,7 +57,7 @@ def test_the_page_plots_and_csvs_are_written(bench):
 
 @pytest.mark.parametrize(("panel", "method"), [
     ("stiff_robertson", "Rodas4 (ours)"), ("stiff_h2o2_ignition", "Cantera CVODES (C++)"),
-    ("stiff_pharma_chain", "Rodas4 + Tsit5 (default)"),
+    ("stiff_pharma_chain", "Rodas5 + Tsit5 (default)"),
 ])
 def test_errors_fall_as_the_tolerance_tightens(bench, panel, method):
     _assert_errors_fall_tenfold(_line(bench[1][panel], method))

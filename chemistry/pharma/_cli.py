@@ -19,8 +19,8 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
                                  f"{spec.par[0]:g}-{spec.par[1]:g})")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance of every unit's solve")
     parser.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance (scaled states)")
-    parser.add_argument("--solver", default="rodas4", help="of the stiff units R1 and R2: rodas4, kvaerno5, kvaerno4 "
-                        "or kvaerno3")
+    parser.add_argument("--solver", default="rodas5", help="of the stiff units R1 and R2: rodas5 "
+                        "(default), rodas4, kvaerno5, kvaerno4 or kvaerno3")
     parser.add_argument("--nonstiff-solver", default="tsit5", help="of the crystallizer and the dryer: tsit5, "
                         "dopri5 or a stiff solver's name")
     parser.add_argument("--without", action="append", default=[], metavar="EFFECT",
