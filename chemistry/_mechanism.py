@@ -69,9 +69,10 @@ class Mechanism(eqx.Module):
 
     @classmethod
     def from_yaml(cls, path: str | Path, phase: str | None = None) -> "Mechanism":
-        """Read phase `phase` (default: the first) of the Cantera YAML file at `path`.
+        """Read phase `phase` (default: the first) of the Cantera YAML file at `path` (a bare
+        file name such as `gri30.yaml` is found as `cantera.Solution` finds it).
 
-        Supported: NASA7 and constant-cp thermo; ideal-gas or ideal-condensed phases, with species
+        Supported: NASA7, NASA9, Shomate and constant-cp thermo; ideal-gas or ideal-condensed phases, with species
         and reactions from other files (`gri30.yaml/species: [...]`); elementary (reversible or
         not, explicit `orders`, negative A on duplicates), three-body with efficiencies, falloff
         and chemically-activated (Lindemann, Troe, Tsang, SRI), and in ideal-gas phases PLOG

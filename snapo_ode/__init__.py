@@ -31,7 +31,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._resources": ("available_memory", "check_memory", "memory_mappings", "relieve_mappings"),
     "._results": ("Result", "field", "jsonable"),
     "._rollout": ("DiscreteStepper", "RolloutMethod", "rollout"),
-    "._rosenbrock": ("Rodas4",),
+    "._rosenbrock": ("Rodas4", "Rodas5"),
     "._sensitivity": ("Jacobian", "JacobianMode", "choose_mode", "flatten_inputs", "input_names", "jacobian",
                       "value_and_sensitivities"),
     "._solver": ("SOLVERS", "STIFF_SOLVERS", "SolverName", "SolverSettings"),
