@@ -28,6 +28,7 @@ its derivative (not a deserialised function then differentiated): the entry hold
 differentiated program, custom_vjp and checkpointed loops already lowered.
 """
 
+import concurrent.futures
 import dataclasses
 import enum
 import functools
@@ -35,6 +36,7 @@ import hashlib
 import importlib.metadata
 import importlib.util
 import json
+import os
 import pathlib
 import site
 import sys
@@ -55,6 +57,7 @@ EXPORTED_DIRECTORY = "exported"
 _MAGIC = b"snapo-exported 1\n"
 _VERSIONED = ("snapo-ode", "jax", "jaxlib", "equinox", "diffrax", "lineax", "optimistix")
 _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deserialised program
+_PREFETCHED: dict[pathlib.Path, concurrent.futures.Future] = {}  # entry -> its reading, under way
 
 
 class Unkeyable(TypeError):
@@ -192,7 +195,103 @@ def _load_or_export(path: pathlib.Path, flat: Callable, leaves, name: str) -> Ca
     return jax.jit(program.call)
 
 
-def exported(fn: Callable, *, name: str, static=None) -> Callable:
+class ExportedProgram:
+    """What `exported` returns: call it as the function it wraps; `prefetch` reads its entry
+    ahead of the call."""
+
+    def __init__(self, fn: Callable, name: str, static):
+        self._fn, self._name = fn, name
+        self._static_key = describe(static, values=True)
+        self._packages = _packages(self._static_key) | {(getattr(fn, "__module__", None) or "snapo_ode").split(".")[0]}
+        self._recent: dict = {}  # (structure, leaf ids, settings) -> (the leaves, kept alive so ids stay theirs; path)
+
+    def _entry(self, args) -> pathlib.Path | None:
+        try:
+            arguments = describe(args)
+            return entry_path(self._name, {"name": self._name, "static": self._static_key, "args": arguments,
+                                           "environment": environment(self._packages | _packages(arguments))})
+        except Unkeyable:
+            return None
+
+    def _path(self, args, every, structure) -> pathlib.Path | None:
+        # Describing a model's every leaf costs milliseconds: a repeated call with the very same
+        # objects (immutable leaves, the structure compared whole) reuses its entry.
+        settings = (jax.config.jax_enable_x64, str(jax.config.jax_default_matmul_precision),
+                    getattr(equinox_errors, "EQX_ON_ERROR", None), jax.config.jax_compilation_cache_dir)
+        try:
+            memo = (structure, tuple(map(id, every)), settings)
+            path = self._recent[memo][1] if memo in self._recent else None
+        except TypeError:  # an unhashable static leaf
+            memo = path = None
+        if path is None:
+            path = self._entry(args)
+            if memo is not None:
+                self._recent[memo] = (every, path)
+                if len(self._recent) > 16:
+                    self._recent.pop(next(iter(self._recent)))
+        return path
+
+    def _flat(self, args):
+        """The program's path, its array leaves and `fn` as a function of them alone."""
+        every, structure = jax.tree.flatten(args)
+        path = self._path(args, every, structure)
+        dynamic, static_part = eqx.partition(args, eqx.is_array)
+        leaves, treedef = jax.tree.flatten(dynamic)
+
+        def flat(*dynamic):
+            return self._fn(*eqx.combine(jax.tree.unflatten(treedef, dynamic), static_part))
+
+        return path, leaves, flat
+
+    def __call__(self, *args):
+        path, leaves, flat = self._flat(args)
+        if path is None:
+            return eqx.filter_jit(self._fn)(*args)
+        if path not in _LOADED:
+            pending = _PREFETCHED.pop(path, None)
+            program = pending.result() if pending is not None and pending.exception() is None else None
+            _LOADED[path] = program or _load_or_export(path, flat, leaves, self._name)
+        return _LOADED[path](*leaves)
+
+    def prefetch(self, *args) -> bool:
+        """Start reading the program for `args` from disk, and its executable from the
+        compilation cache, in a background thread, so that the call with such arguments that
+        follows finds it loaded (reading a chain's programs takes ~0.2-1.2 s each; several
+        prefetched together read in parallel). Only an entry already on disk is read: a missing
+        one is traced when called, as ever. Prefetch where the call will be made alike (inside
+        `snapo_ode.prefetch_checked` for a program called through `call_checked`), since the
+        runtime-check mode is part of the key.
+
+        **Returns:** whether an entry was on disk (and is being read)."""
+        path, leaves, _ = self._flat(args)
+        if path is None or path in _LOADED or path in _PREFETCHED or not path.is_file():
+            return False
+        precision = jax.config.jax_default_matmul_precision
+
+        def load() -> Callable | None:
+            # Read only: an unreadable entry (None) is rebuilt by the call, which traces where
+            # the runtime-check mode is the caller's. JAX's in-memory caches key the executable
+            # by the arguments' placement and the trace context: lowered for the very leaves of
+            # the call, and with the caller's matmul precision (thread-local).
+            program = _read(path)
+            if program is None:
+                return None
+            with jax.default_matmul_precision(precision):
+                program = jax.jit(program.call)
+                program.lower(*leaves).compile()
+            return program
+
+        _PREFETCHED[path] = _prefetcher().submit(load)
+        return True
+
+
+@functools.cache
+def _prefetcher() -> concurrent.futures.ThreadPoolExecutor:
+    return concurrent.futures.ThreadPoolExecutor(max_workers=os.cpu_count() or 1,
+                                                 thread_name_prefix="snapo-prefetch")
+
+
+def exported(fn: Callable, *, name: str, static=None) -> ExportedProgram:
     """`fn` (a function of pytrees, its array leaves traced, every other leaf static) as a
     program traced once and kept on disk; see the module docstring.
 
@@ -202,49 +301,8 @@ def exported(fn: Callable, *, name: str, static=None) -> Callable:
     - `static`: what `fn` closes over and its program depends on (a model, settings): part of
       the key, array values included. Arguments need not be listed: they are keyed by structure.
 
-    **Returns:** a function of the same arguments. Without a compilation cache directory, or
-    with an argument that cannot be keyed (`Unkeyable`: a closure, a traced value), it is `fn`
-    jitted (`equinox.filter_jit`).
+    **Returns:** an `ExportedProgram`, a function of the same arguments (with `prefetch`).
+    Without a compilation cache directory, or with an argument that cannot be keyed
+    (`Unkeyable`: a closure, a traced value), it is `fn` jitted (`equinox.filter_jit`).
     """
-    static_key = describe(static, values=True)
-    packages = _packages(static_key) | {(getattr(fn, "__module__", None) or "snapo_ode").split(".")[0]}
-
-    recent: dict = {}  # (structure, leaf ids, settings) -> (the leaves, kept alive so ids stay theirs; path)
-
-    def entry(args) -> pathlib.Path | None:
-        try:
-            arguments = describe(args)
-            return entry_path(name, {"name": name, "static": static_key, "args": arguments,
-                                     "environment": environment(packages | _packages(arguments))})
-        except Unkeyable:
-            return None
-
-    def call(*args):
-        # Describing a model's every leaf costs milliseconds: a repeated call with the very same
-        # objects (immutable leaves, the structure compared whole) reuses its entry.
-        every, structure = jax.tree.flatten(args)
-        settings = (jax.config.jax_enable_x64, str(jax.config.jax_default_matmul_precision),
-                    getattr(equinox_errors, "EQX_ON_ERROR", None), jax.config.jax_compilation_cache_dir)
-        try:
-            memo = (structure, tuple(map(id, every)), settings)
-            path = recent[memo][1] if memo in recent else None
-        except TypeError:  # an unhashable static leaf
-            memo = path = None
-        if path is None:
-            path = entry(args)
-            if memo is not None:
-                recent[memo] = (every, path)
-                if len(recent) > 16:
-                    recent.pop(next(iter(recent)))
-        if path is None:
-            return eqx.filter_jit(fn)(*args)
-        dynamic, static_part = eqx.partition(args, eqx.is_array)
-        leaves, treedef = jax.tree.flatten(dynamic)
-        if path not in _LOADED:
-            def flat(*dynamic):
-                return fn(*eqx.combine(jax.tree.unflatten(treedef, dynamic), static_part))
-
-            _LOADED[path] = _load_or_export(path, flat, leaves, name)
-        return _LOADED[path](*leaves)
-
-    return call
+    return ExportedProgram(fn, name, static)

@@ -116,6 +116,16 @@ def call_checked(fn, *args, what: str = "the computation", **kwargs):
     return out
 
 
+def prefetch_checked(program, *args) -> bool:
+    """Start reading `program` (a `snapo_ode.exported` program) for `args` in the background,
+    keyed as `call_checked(program, *args)` will look it up (`ExportedProgram.prefetch`):
+    prefetch the programs a command will run before running the first, and they load in
+    parallel, on other cores, with it. **Returns:** whether an entry was on disk to read."""
+    _check_equinox_error_mode()
+    with _runtime_checks_as_nan():
+        return program.prefetch(*args)
+
+
 def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: bool = True, **kwargs):
     """`diffrax.diffeqsolve(terms, solver, t0, t1, dt0, y0, args, **kwargs)` with checks.
 

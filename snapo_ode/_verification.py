@@ -99,11 +99,14 @@ def central_differences(fn: Callable, inputs, *args, select: Callable | None = N
     steps = bump_steps(flatten_inputs(part)[0], relative_step, step_floor)
     if not batched:
         return np.asarray(_differences(fn, inputs, args, select, steps, richardson, False, None, call))
-    return np.asarray(call(_batched_program(fn, select, richardson, batch_size), inputs, args, jnp.asarray(steps)))
+    return np.asarray(call(bumps_program(fn, select, richardson, batch_size), inputs, args, jnp.asarray(steps)))
 
 
-def _batched_program(fn, select, richardson: bool, batch_size: int | None):
-    """The jitted program of every bump at once: `(inputs, args, steps) -> differences`."""
+def bumps_program(fn, select=None, richardson: bool = False, batch_size: int | None = None):
+    """The jitted program of every central bump of `fn` at once (vmapped; arguments as in
+    `central_differences`): `(inputs, args, steps) -> differences`, `steps` shape (n,) from
+    `bump_steps`. It is the program `compare_with_bumps` and `central_differences` run, for a
+    caller that keeps it (`snapo_ode.exported`) or reads it ahead (`prefetch_checked`)."""
     return eqx.filter_jit(lambda inputs, args, steps: _differences(fn, inputs, args, select, steps, richardson,
                                                                    True, batch_size, _direct))
 
@@ -120,7 +123,7 @@ def bump_and_revalue(fn: Callable, inputs, *args, select: Callable | None = None
     steps = relative_step * jnp.maximum(jnp.abs(flat), 1.0)
     if not batched:
         return rebuild(_differences(fn, inputs, args, select, steps, False, False, None, _direct))
-    return rebuild(_batched_program(fn, select, False, batch_size)(inputs, args, steps))
+    return rebuild(bumps_program(fn, select, False, batch_size)(inputs, args, steps))
 
 
 class Agreement(NamedTuple):
@@ -280,7 +283,7 @@ def compare_with_bumps(fn: Callable, inputs, *args, select: Callable | None = No
     bump_repeats = repeats if bump_repeats is None else bump_repeats
 
     steps = jnp.asarray(bump_steps(flatten_inputs(part)[0], relative_step, step_floor))
-    program = _batched_program(reference, select, richardson, batch_size)
+    program = bumps_program(reference, select, richardson, batch_size)
     bump_timing, bumped = time_function(functools.partial(call, program), inputs, args, steps, repeats=bump_repeats)
     bumped = np.asarray(bumped)
     if scalar:

@@ -1,5 +1,6 @@
 """Exported programs (`snapo_ode.exported`): a second process loads the traced program from disk
-and neither traces it nor compiles it; its results are bit-identical to the first process's and
+and neither traces it nor compiles it (also when it was prefetched: read once, in the
+background); its results are bit-identical to the first process's and
 match the plain jitted function; a changed setting or shape makes a new entry; a corrupt entry is
 rebuilt with a warning; a failed solve still raises `SolverFailed` through the deserialised
 program (its checks are NaN marks under `call_checked`, not host callbacks).
@@ -57,9 +58,11 @@ model = Decay(jnp.linspace(1.0, 1e3, n), max_steps)
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     try:
-        value, gradient = snapo_ode.call_checked(program, model, jnp.ones(n))
+        y0 = jax.device_put(jnp.ones(n), jax.devices()[0])  # committed, as a model's arrays often are
+        prefetched = sys.argv[3] == "prefetch" and snapo_ode.prefetch_checked(program, model, y0)
+        value, gradient = snapo_ode.call_checked(program, model, y0)
         result = {"value": float(value), "gradient": np.asarray(gradient).tolist(), "traces": len(traces),
-                  "compiles": len(compiles) - len(hits)}
+                  "compiles": len(compiles) - len(hits), "reads": len(hits), "prefetched": prefetched}
         if sys.argv[3] == "plain":
             plain = jax.jit(value_and_gradient)(model, jnp.ones(n))
             result["plain"] = [float(plain[0]), np.asarray(plain[1]).tolist()]
@@ -70,11 +73,12 @@ print(json.dumps(result))
 """
 
 
-def run(cache_dir, max_steps=4096, n=2, plain=False):
+def run(cache_dir, max_steps=4096, n=2, plain=False, prefetch=False):
     """The script in a fresh process with `cache_dir` as its cache (with `plain`, also the plain
-    jitted function); its JSON line."""
+    jitted function; with `prefetch`, the program prefetched before its call); its JSON line."""
     env = dict(os.environ, SNAPO_CACHE_DIR=str(cache_dir))
-    out = subprocess.run([sys.executable, "-c", SCRIPT, str(max_steps), str(n), "plain" if plain else "-"], env=env,
+    how = "plain" if plain else "prefetch" if prefetch else "-"
+    out = subprocess.run([sys.executable, "-c", SCRIPT, str(max_steps), str(n), how], env=env,
                          capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -109,6 +113,17 @@ def test_second_process_loads_without_tracing_and_gives_the_same_results(exporte
     assert second["traces"] == 0 and second["compiles"] == 0
     assert (second["value"], second["gradient"]) == (first["value"], first["gradient"])  # bit for bit
     assert second["warnings"] == []
+
+
+def test_a_prefetched_program_is_read_once_and_gives_the_same_results(exported_once, tmp_path):
+    cache, first = exported_once
+    plain, prefetched = run(cache), run(cache, prefetch=True)
+    assert prefetched["prefetched"] and prefetched["traces"] == 0 and prefetched["compiles"] == 0
+    # The executable read in the background is the one the call runs: not read a second time.
+    assert prefetched["reads"] == plain["reads"]
+    assert (prefetched["value"], prefetched["gradient"]) == (first["value"], first["gradient"])
+    cold = run(tmp_path, prefetch=True)  # nothing on disk yet: nothing to prefetch, traced as ever
+    assert not cold["prefetched"] and cold["traces"] == 1 and cold["value"] == first["value"]
 
 
 def test_a_changed_setting_or_shape_makes_a_new_entry(cache):

@@ -9,8 +9,8 @@ import numpy as np
 from jax.sharding import NamedSharding
 
 from snapo_ode import (
-    SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, exported, flatten_inputs, jacobian, per_sample, spec,
-    to_host)
+    SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, exported, flatten_inputs, jacobian, per_sample,
+    prefetch_checked, spec, to_host)
 
 from ._chain import PharmaChain
 from ._cqa import cqa_vector
@@ -78,6 +78,13 @@ def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
     return lambda inputs: call_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode,
                                        what="the chain's sensitivities")
+
+
+def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: bool, mode: str) -> bool:
+    """Start reading `jacobian_function(chain, with_parameters, mode)`'s program for `inputs`
+    from disk in the background (`snapo_ode.prefetch_checked`); whether it was there."""
+    chain = chain.with_solver(chain.solver.replace(differentiation=mode))
+    return prefetch_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode)
 
 
 def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mesh=None):
