@@ -176,28 +176,32 @@ def _read(path: pathlib.Path):
         return None
 
 
+def _export(path: pathlib.Path, flat: Callable, leaves, name: str):
+    """`flat` traced, lowered and written at `path`; the deserialised program (what every later
+    process runs), or None, with a warning, if it cannot be exported (e.g. a host callback)."""
+    structs = [jax.ShapeDtypeStruct(np.shape(leaf), leaf.dtype) for leaf in leaves]
+    try:
+        serialised = jax.export.export(jax.jit(flat))(*structs).serialize()
+    except Exception as error:  # noqa: BLE001 - whatever export refuses runs as before
+        warnings.warn(f"snapo: {name} cannot be exported ({type(error).__name__}: {error}); it is traced "
+                      "in every process", stacklevel=5)
+        return None
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, _MAGIC + b"sha256 " + hashlib.sha256(serialised).hexdigest().encode() + b"\n"
+                       + serialised)
+    return jax.export.deserialize(bytearray(serialised))
+
+
 def _load_or_export(path: pathlib.Path, flat: Callable, leaves, name: str) -> Callable:
     """The program at `path`, else `flat` traced, lowered and written there; jitted. A program
-    that cannot be exported (e.g. a host callback) is `flat` jitted, with a warning."""
-    program = _read(path)
-    if program is None:
-        structs = [jax.ShapeDtypeStruct(np.shape(leaf), leaf.dtype) for leaf in leaves]
-        try:
-            serialised = jax.export.export(jax.jit(flat))(*structs).serialize()
-        except Exception as error:  # noqa: BLE001 - whatever export refuses runs as before
-            warnings.warn(f"snapo: {name} cannot be exported ({type(error).__name__}: {error}); it is traced "
-                          "in every process", stacklevel=4)
-            return jax.jit(flat)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(path, _MAGIC + b"sha256 " + hashlib.sha256(serialised).hexdigest().encode() + b"\n"
-                           + serialised)
-        program = jax.export.deserialize(bytearray(serialised))
-    return jax.jit(program.call)
+    that cannot be exported is `flat` jitted, with a warning."""
+    program = _read(path) or _export(path, flat, leaves, name)
+    return jax.jit(flat) if program is None else jax.jit(program.call)
 
 
 class ExportedProgram:
-    """What `exported` returns: call it as the function it wraps; `prefetch` reads its entry
-    ahead of the call."""
+    """What `exported` returns: call it as the function it wraps; `prefetch` prepares it ahead
+    of the call."""
 
     def __init__(self, fn: Callable, name: str, static):
         self._fn, self._name = fn, name
@@ -254,35 +258,41 @@ class ExportedProgram:
         return _LOADED[path](*leaves)
 
     def prefetch(self, *args) -> bool:
-        """Start reading the program for `args` from disk, and its executable from the
-        compilation cache, in a background thread, so that the call with such arguments that
-        follows finds it loaded (reading a chain's programs takes ~0.2-1.2 s each; several
-        prefetched together read in parallel). Only an entry already on disk is read: a missing
-        one is traced when called, as ever. Prefetch where the call will be made alike (inside
-        `snapo_ode.prefetch_checked` for a program called through `call_checked`), since the
-        runtime-check mode is part of the key.
+        """Prepare the program for `args` ahead of its call, so that the call finds it compiled:
+        an entry on disk is read, and its executable from the compilation cache, in a background
+        thread (a warm chain's programs take ~0.2-1.2 s each to read; several prefetched
+        together read in parallel while the first runs); a missing entry is traced and written
+        here, in the caller's thread, and compiled in the background while the caller traces
+        the next. Prefetch where the call will be made alike (inside
+        `snapo_ode.prefetch_checked` for a program called through `call_checked`): the
+        runtime-check mode is part of the key, and tracing must see it.
 
-        **Returns:** whether an entry was on disk (and is being read)."""
-        path, leaves, _ = self._flat(args)
-        if path is None or path in _LOADED or path in _PREFETCHED or not path.is_file():
+        **Returns:** whether the entry was on disk (False: traced here, or nothing to do)."""
+        path, leaves, flat = self._flat(args)
+        if path is None or path in _LOADED or path in _PREFETCHED:
+            return False
+        on_disk = path.is_file()
+        program = None if on_disk else _export(path, flat, leaves, self._name)
+        if not on_disk and program is None:
+            _LOADED[path] = jax.jit(flat)
             return False
         precision = jax.config.jax_default_matmul_precision
 
-        def load() -> Callable | None:
-            # Read only: an unreadable entry (None) is rebuilt by the call, which traces where
-            # the runtime-check mode is the caller's. JAX's in-memory caches key the executable
-            # by the arguments' placement and the trace context: lowered for the very leaves of
-            # the call, and with the caller's matmul precision (thread-local).
-            program = _read(path)
-            if program is None:
+        def prepare() -> Callable | None:
+            # An unreadable entry (None) is rebuilt by the call, which traces where the
+            # runtime-check mode is the caller's. JAX's in-memory caches key the executable by
+            # the arguments' placement and the trace context: lowered for the very leaves of the
+            # call, with the caller's matmul precision (thread-local).
+            deserialised = _read(path) if on_disk else program
+            if deserialised is None:
                 return None
             with jax.default_matmul_precision(precision):
-                program = jax.jit(program.call)
-                program.lower(*leaves).compile()
-            return program
+                jitted = jax.jit(deserialised.call)
+                jitted.lower(*leaves).compile()
+            return jitted
 
-        _PREFETCHED[path] = _prefetcher().submit(load)
-        return True
+        _PREFETCHED[path] = _prefetcher().submit(prepare)
+        return on_disk
 
 
 @functools.cache
