@@ -1,6 +1,6 @@
 """`snapo bench kinetics --batch N`: N constant-volume adiabatic ignitions from different initial
 states, solved by us as one batch (`final_temperature_batch`, and each reactor's d T / d ln A_i
-from one reverse pass each, `temperature_sensitivities_batch`) and by Cantera one after the
+from a reverse pass each, vmapped, `temperature_sensitivities_batch`) and by Cantera one after the
 other, at the single bench's tolerances and to the same time (the case's sensitivity time).
 
 The conditions: T0 uniform in [T_case - 50 K, T_case] and P0 in [0.5, 1] x the case's pressure
@@ -26,9 +26,8 @@ GROUP_SIZE = 32
 """Reactors per vmap in the grouped forward run (larger batches only), next to the one-vmap run:
 what grouping conditions sorted by T0 (alike step counts) saves."""
 GRADIENT_SAMPLE = 16
-"""Reactors (evenly spaced through the sorted batch) whose gradients are timed: the reverse passes
-run one reactor at a time (`chemistry._batch` says why), so the time per reactor does not
-depend on N, and 256 gri30 reverse passes would take ~15 minutes."""
+"""Reactors (evenly spaced through the sorted batch) whose gradients are timed, as one vmap: 256
+gri30 reverse passes would take ~15 minutes, and their memory (a checkpoint a step) grows with N."""
 
 
 def batch_conditions(mechanism, case: IgnitionCase, size: int, seed: int = 0) -> IgnitionBatch:
@@ -84,8 +83,8 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
                     repeats: int) -> dict:
     """The batch fields of the kinetics bench's row for mechanism `name`: per-reactor times and
     throughputs of our batched forward solve (one vmap, and in groups of `GROUP_SIZE` of the
-    conditions sorted by T0), our gradients (one reactor at a time, timed on `GRADIENT_SAMPLE` of
-    them) and Cantera's serial runs."""
+    conditions sorted by T0), our gradients (vmapped over `GRADIENT_SAMPLE` of them) and
+    Cantera's serial runs."""
     import jax
     import jax.numpy as jnp
 
@@ -98,7 +97,7 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
         temperature_program, (mechanism, batch, end, settings, group, False), repeats) if group else (None,) * 3
     sample = jax.tree.map(lambda x: x[np.linspace(0, size - 1, min(size, GRADIENT_SAMPLE)).astype(int)], batch)
     gradient_compile, gradient, _ = _compiled_and_timed(
-        temperature_program, (mechanism, sample, end, settings, 1, True), repeats)
+        temperature_program, (mechanism, sample, end, settings, None, True), repeats)
     cantera, cantera_temperature = cantera_serial(path, batch, end_time, repeats, rtol=settings.rtol,
                                                   atol=settings.atol)
     forward, gradient, cantera = forward / size, gradient / sample.size, cantera / size  # per reactor

@@ -156,6 +156,13 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
         dtype = y0_flat.dtype
         h = jnp.asarray(t1 - t0, dtype)
         t0 = jnp.asarray(t0, dtype)
+        # Under jax.vmap, Diffrax's loop goes on stepping a member that has finished, from t1 to
+        # t1, and discards the result. With h = 0, I / (gamma h) is inf and the stages NaN,
+        # which a reverse pass multiplies by the discard's zero cotangent (measured: every
+        # gradient of a batch member that finished before the slowest was NaN). Such a step is
+        # taken with a step of one ulp of t0 instead (every stage finite), and returns y0.
+        still = h == 0.0
+        h = jnp.where(still, jnp.finfo(dtype).eps * jnp.maximum(jnp.abs(t0), 1.0), h)
 
         def rate(t, y_flat):
             return ravel_pytree(terms.vf(t, unravel(y_flat), args))[0]
@@ -187,10 +194,12 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
             stages.append(_solve(factors, matrix, rate_i))
         last = len(tableau.alpha) - 1
         y1_flat = y0_flat + sum(tableau.a[last, j] * stages[j] for j in range(last)) + stages[last]
+        y1_flat = jnp.where(still, y0_flat, y1_flat)
         y1 = unravel(y1_flat)
         f1 = rate(t0 + h, y1_flat)
+        error = jnp.where(still, 0.0, stages[last])
         dense_info = dict(y0=y0, y1=y1, k0=unravel(h * f0), k1=unravel(h * f1))
-        return y1, unravel(stages[last]), dense_info, f1, diffrax.RESULTS.successful
+        return y1, unravel(error), dense_info, f1, diffrax.RESULTS.successful
 
 
 class Rodas4(AbstractRosenbrock):
