@@ -5,6 +5,8 @@ process must still trace and lower a program before it can look the executable u
 Python for the pharma chain's Jacobian, every process. `exported(fn, name=...)` serialises the
 lowered program (`jax.export`) into `<compilation cache dir>/exported/` and, in the next process,
 deserialises it instead of tracing `fn`; its XLA compile then hits the persistent cache.
+`ExportedProgram.prefetch` does either ahead of the call, the reading and the compile in a
+background thread, so that a command's several programs load in parallel.
 
 An entry's key is everything that shapes the program:
 

@@ -117,10 +117,10 @@ def call_checked(fn, *args, what: str = "the computation", **kwargs):
 
 
 def prefetch_checked(program, *args) -> bool:
-    """Start reading `program` (a `snapo_ode.exported` program) for `args` in the background,
-    keyed as `call_checked(program, *args)` will look it up (`ExportedProgram.prefetch`):
-    prefetch the programs a command will run before running the first, and they load in
-    parallel, on other cores, with it. **Returns:** whether an entry was on disk to read."""
+    """`program.prefetch(*args)` (a `snapo_ode.exported` program, `ExportedProgram.prefetch`)
+    keyed and traced as `call_checked(program, *args)` will look it up: prefetch the programs a
+    command will run before running the first, and those on disk load, and those traced here
+    compile, on other cores while it runs. **Returns:** whether the entry was on disk."""
     _check_equinox_error_mode()
     with _runtime_checks_as_nan():
         return program.prefetch(*args)

@@ -81,8 +81,9 @@ def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
 
 
 def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: bool, mode: str) -> bool:
-    """Start reading `jacobian_function(chain, with_parameters, mode)`'s program for `inputs`
-    from disk in the background (`snapo_ode.prefetch_checked`); whether it was there."""
+    """Prepare `jacobian_function(chain, with_parameters, mode)`'s program for `inputs` ahead of
+    its call (`snapo_ode.prefetch_checked`: read in the background if on disk, else traced here
+    and compiled in the background); whether it was on disk."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
     return prefetch_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode)
 

@@ -137,10 +137,12 @@ def _call_bumps(adjoint, bumps, program, *args):
 
 
 def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumps, reference) -> None:
-    """Start reading the study's programs from disk (a second process), each in a thread of its
-    own, while the first runs: the adjoint, the bumps (`bumps` or None) and the reference
-    Jacobian (its solver settings or None). Reading them one after another took ~2 s of the
-    ~5.5 s a warm `snapo pharma sensitivities` takes (measured on 2 cores)."""
+    """Prepare the study's programs before the first runs (`snapo_ode.prefetch_checked`): the
+    adjoint, the bumps (`bumps` or None) and the reference Jacobian (its solver settings or
+    None). A second process reads them in background threads (one after another they took ~2 s
+    of the ~5.5 s a warm `snapo pharma sensitivities` took, on 2 cores); a first one traces each
+    here while those traced before compile in the background. The bumps' steps are built as
+    `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
     prefetch_jacobian(chain, inputs, True, mode)
     if bumps is not None:
         steps = jnp.asarray(bump_steps(flatten_inputs(inputs)[0], BUMP_RELATIVE_STEP, 0.0))
