@@ -130,16 +130,15 @@ def jacobian(fn: Callable, inputs, *args, mode: JacobianMode = "auto", names: Se
     def flat_fn(vector):
         return jnp.ravel(fn(rebuild(vector), *args))
 
-    n_outputs = jax.eval_shape(flat_fn, flat).shape[0]
     if mode == "auto":
-        mode = choose_mode(n_outputs, flat.shape[0])
+        mode = choose_mode(jax.eval_shape(flat_fn, flat).shape[0], flat.shape[0])
     if mode == "reverse":
         values, pullback = jax.vjp(flat_fn, flat)
         (matrix,) = jax.vmap(pullback)(jnp.eye(values.shape[0], dtype=values.dtype))
     else:
-        values = flat_fn(flat)
         tangents = jnp.eye(flat.shape[0], dtype=flat.dtype)
-        matrix = jax.vmap(lambda tangent: jax.jvp(flat_fn, (flat,), (tangent,))[1])(tangents).T
+        values, matrix = jax.vmap(lambda tangent: jax.jvp(flat_fn, (flat,), (tangent,)), out_axes=(None, 1))(tangents)
+    n_outputs = values.shape[0]
     names = tuple(input_names(inputs) if names is None else names)
     output_names = tuple(str(i) for i in range(n_outputs)) if output_names is None else tuple(output_names)
     if len(names) != flat.shape[0] or len(output_names) != n_outputs:

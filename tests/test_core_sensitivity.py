@@ -54,6 +54,7 @@ def test_jacobian_modes_agree_with_each_other_and_closed_form(mode):
 
     jac = snapo_ode.jacobian(outputs, INPUTS, mode=mode)
     assert jac.mode == mode and jac.matrix.shape == (3, 8)
+    np.testing.assert_allclose(jac.values, outputs(INPUTS), rtol=1e-15)
     np.testing.assert_allclose(jac.row(0)["a"], analytic(INPUTS)["a"], rtol=1e-13)
     np.testing.assert_allclose(jac.row(1)["b"], 2 * INPUTS["b"], rtol=1e-15)
     np.testing.assert_allclose(jac.row(2)["a"], jnp.ones(7), rtol=0)
