@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import InputError, SolverSettings, check_range
+from snapo_ode import InputError, SolverFailed, SolverSettings, call_checked, check_range, exported
 
 from ._mechanism import Mechanism
 from ._reactor import REACTOR_SOLVER, Reactor, Trajectory, simulate
@@ -61,8 +61,6 @@ def ignition_delay(trajectory: Trajectory, initial_temperature, rise: float = IG
         raise InputError("ignition_delay needs simulate(..., dense=True).")
     threshold = initial_temperature + rise
     above = trajectory.temperature >= threshold
-    above = eqx.error_if(above, ~jnp.any(above), "the temperature never reaches T0 + rise: no "
-                         "ignition before the last saved time; integrate longer or lower `rise`.")
     first = jnp.argmax(above)
     bracket = trajectory.times[jnp.maximum(first - 1, 0)], trajectory.times[first]
 
@@ -73,7 +71,11 @@ def ignition_delay(trajectory: Trajectory, initial_temperature, rise: float = IG
         return jnp.where(hot, low, middle), jnp.where(hot, middle, high)
 
     low, high = jax.lax.fori_loop(0, iterations, halve, bracket)
-    return 0.5 * (low + high)
+    # On the float delay, not on the boolean `above`: under `snapo_ode.call_checked` a failed
+    # check is a NaN mark, which a boolean cannot carry (measured: the check vanished and the
+    # delay read 0).
+    return eqx.error_if(0.5 * (low + high), ~jnp.any(above), "the temperature never reaches T0 + rise: no "
+                        "ignition before the last saved time; integrate longer or lower `rise`.")
 
 
 class IgnitionResult(NamedTuple):
@@ -89,12 +91,34 @@ class IgnitionResult(NamedTuple):
 def solve_ignition(mechanism: Mechanism, concentrations, case: IgnitionCase, times, *,
                    settings: SolverSettings = REACTOR_SOLVER, rise: float = IGNITION_RISE):
     """Our constant-volume adiabatic ignition from `concentrations` [kmol/m^3] at
-    `case.temperature`, saved at `times` [s]: an `IgnitionResult`."""
+    `case.temperature`, saved at `times` [s]: an `IgnitionResult`.
+
+    **Raises:** `SolverFailed` with advice if the solve fails or the temperature never reaches
+    T0 + `rise` before the last of `times`."""
+    times = np.asarray(times, float)
+    try:
+        temperature, delay, steps = call_checked(
+            _exported_ignition, mechanism, jnp.asarray(concentrations, float), jnp.asarray(case.temperature, float),
+            jnp.asarray(times), settings, rise, what="the ignition")
+    except SolverFailed as failure:
+        raise SolverFailed(f"{failure} Or the temperature never reached T0 + {rise:g} K before the last saved time "
+                           f"({times[-1]:g} s): integrate longer or lower `rise`.") from failure
+    return IgnitionResult(np.asarray(times), np.asarray(temperature), float(delay), int(steps))
+
+
+@eqx.filter_jit
+def _ignition(mechanism: Mechanism, concentrations, temperature, times, settings: SolverSettings, rise: float):
+    """`solve_ignition`'s program: the temperature at `times`, the delay and the accepted steps."""
     reactor = Reactor(mechanism, "constant-volume", ("energy",))
-    run = eqx.filter_jit(lambda c: trajectory_and_delay(reactor, case.temperature, c, times, settings, rise))
-    trajectory, delay = run(jnp.asarray(concentrations))
-    return IgnitionResult(np.asarray(times), np.asarray(trajectory.temperature), float(delay),
-                          int(trajectory.solution.stats["num_accepted_steps"]))
+    trajectory, delay = trajectory_and_delay(reactor, temperature, concentrations, times, settings, rise)
+    return trajectory.temperature, delay, trajectory.solution.stats["num_accepted_steps"]
+
+
+_exported_ignition = exported(_ignition, name="kinetics-ignition")
+"""Kept on disk traced (`snapo_ode.exported`) and run through `snapo_ode.call_checked`, whose
+runtime checks are NaN marks rather than host callbacks, so that the compilation cache keeps its
+executable: traced with callbacks it was compiled again in every process (4 s of a warm `snapo
+kinetics check h2o2.yaml`'s 9.6 s)."""
 
 
 def trajectory_and_delay(reactor: Reactor, temperature, concentrations, times, settings: SolverSettings,

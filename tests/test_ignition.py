@@ -8,6 +8,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from snapo_ode import SolverFailed
 
 from chemistry import (
     IGNITION_CASES,
@@ -36,6 +37,13 @@ def test_ignition_delay_and_temperature_history_match_cantera(name):
     assert abs(ours.delay / reference.delay - 1) < 1e-4
     assert np.max(np.abs(ours.temperature / reference.temperature - 1)) < 1e-3
     assert ours.temperature[-1] > case.temperature + 1000.0
+
+
+def test_no_ignition_before_the_last_time_raises_with_advice():
+    path, case = CANTERA_DATA / "h2o2.yaml", IGNITION_CASES["h2o2"]
+    early = np.linspace(0.0, case.end_time / 100, 51)  # the delay is ~0.3 ms of 1 ms
+    with pytest.raises(SolverFailed, match="never reached T0 \\+ 400 K before the last saved time"):
+        solve_ignition(Mechanism.from_yaml(path), initial_concentrations(path, case), case, early)
 
 
 # gri30's gradient compiles for ~50 s on CI's 2 cores: under `make test-slow`; h2o2 runs the same code.
