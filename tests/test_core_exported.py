@@ -172,3 +172,24 @@ def test_keys_describe_structure_and_refuse_what_differs_between_processes():
         snapo_ode.describe(lambda x: scale * x)
     with pytest.raises(snapo_ode.Unkeyable):
         snapo_ode.describe(object())
+
+
+def _double(x):
+    return (2 * x,)
+
+
+def test_new_arrays_of_the_same_shapes_reuse_the_entry_without_describing_it_again(monkeypatch):
+    import snapo_ode._exported as module
+
+    described = []
+    describe = module.describe
+    monkeypatch.setattr(module, "describe", lambda tree, **kw: described.append(1) or describe(tree, **kw))
+    monkeypatch.setattr(module, "entry_path", lambda name, key: json.dumps(key, sort_keys=True))
+    program = snapo_ode.exported(_double, name="test-double")
+    first = program._flat((jnp.ones(3),))[0]
+    assert described and program._flat((jnp.zeros(3),))[0] == first  # a design space's next point
+    count = len(described)
+    assert program._flat((jnp.zeros(3),))[0] == first and len(described) == count  # not described again
+    assert program._flat((jnp.zeros(4),))[0] != first  # another shape
+    assert program._flat((jnp.zeros(3, dtype=jnp.int32),))[0] != first  # another dtype
+    assert len(described) > count

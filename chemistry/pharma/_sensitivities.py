@@ -2,6 +2,8 @@
 parameter, from one Jacobian of the chain (5 reverse passes, vmapped, or one forward tangent per
 input), addressed by name (`snapo_ode.Jacobian`)."""
 
+import itertools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -90,9 +92,10 @@ def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: 
 
 def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mesh=None):
     """As `jacobian_function`, for many points at once: a function of a sequence of inputs ->
-    a list of (CQAs (5,), Jacobian (5, n)) as NumPy arrays. With a samples `mesh`, the points go
-    to this process's devices of it, one per device at a time, dispatched together (JAX runs
-    them at once); without, one after another, through the program on disk (`jacobian_function`).
+    a list of (CQAs (5,), Jacobian (5, n)) as NumPy arrays. Every point is dispatched before
+    any result is read, so that JAX runs one while Python dispatches the next (measured: ~6 ms
+    of Python a point against ~16 ms of solving). With a samples `mesh`, the points go to this
+    process's devices of it in turn; without, through the program on disk (`jacobian_function`).
     Not through `shard_map`: the reverse pass of
     equinox's checkpointed while loop refuses to run inside it ("Closure-converted function
     called with different dynamic arguments")."""
@@ -101,17 +104,13 @@ def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mes
 
     program = _exported_values_and_jacobian if mesh is None else _values_and_jacobian
 
-    def on_devices(group):
+    def on_devices(points):
         return [program(chain, inputs if device is None else jax.device_put(inputs, device), with_parameters, mode)
-                for inputs, device in zip(group, devices)]
+                for inputs, device in zip(points, itertools.cycle(devices))]
 
     def evaluate_many(points):
-        results = []
-        for start in range(0, len(points), len(devices)):
-            group = call_checked(on_devices, list(points[start:start + len(devices)]),
-                                 what="the chain's sensitivities")
-            results += [(np.asarray(values), np.asarray(matrix)) for values, matrix in group]
-        return results
+        outputs = call_checked(on_devices, list(points), what="the chain's sensitivities")
+        return [(np.asarray(values), np.asarray(matrix)) for values, matrix in outputs]
 
     return evaluate_many
 
