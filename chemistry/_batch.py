@@ -26,9 +26,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import InputError, SolverSettings, check_count, check_increasing, check_range, check_scalar
+from snapo_ode import (
+    InputError, SolverSettings, call_checked, check_count, check_increasing, check_range, check_scalar)
 
-from ._ignition import IGNITION_RISE, trajectory_and_delay
+from ._ignition import IGNITION_RISE, ignition_checked, trajectory_and_delay
 from ._mechanism import Mechanism
 from ._reactor import REACTOR_SOLVER, Reactor
 from ._sensitivities import temperature_at, with_multipliers
@@ -159,18 +160,20 @@ def _over_reactors(fn: Callable, arrays: tuple, group_size: int | None):
 def final_temperature_batch(mechanism: Mechanism, batch: IgnitionBatch, time: float, *,
                             settings: SolverSettings = REACTOR_SOLVER, group_size: int | None = None) -> Vector:
     """T(`time`) [K] of every reactor of `batch`, shape `(N,)`: `chemistry.temperature_at` per
-    reactor, vmapped (in groups of `group_size`, see the module docstring)."""
-    return temperature_program(mechanism, batch, _checked_time(mechanism, batch, time, group_size), settings,
-                               group_size, gradient=False)
+    reactor, vmapped (in groups of `group_size`, see the module docstring). **Raises:**
+    `SolverFailed` with advice if a reactor's solve fails."""
+    return call_checked(temperature_program, mechanism, batch, _checked_time(mechanism, batch, time, group_size),
+                        settings, group_size, gradient=False, what="the batch's ignitions")
 
 
 def temperature_sensitivities_batch(mechanism: Mechanism, batch: IgnitionBatch, time: float, *,
                                     settings: SolverSettings = REACTOR_SOLVER, group_size: int | None = None):
     """d ln T(`time`) / d ln A_i of every reactor, shape `(N, n_reactions)`, at the batch's
     multipliers, from one reverse pass per reactor, vmapped (in groups of `group_size`; 1: one
-    reactor at a time), and T(`time`) [K], shape `(N,)`."""
-    return temperature_program(mechanism, batch, _checked_time(mechanism, batch, time, group_size), settings,
-                               group_size, gradient=True)
+    reactor at a time), and T(`time`) [K], shape `(N,)`. **Raises:** `SolverFailed` with advice
+    if a reactor's solve or reverse pass fails."""
+    return call_checked(temperature_program, mechanism, batch, _checked_time(mechanism, batch, time, group_size),
+                        settings, group_size, gradient=True, what="the batch's sensitivities")
 
 
 def _checked_time(mechanism, batch, time, group_size):
@@ -210,15 +213,16 @@ def solve_ignition_batch(mechanism: Mechanism, batch: IgnitionBatch, times, *,
     """Every reactor of `batch` saved at `times` [s] (shape `(n_t,)`, from 0, increasing) and its
     ignition delay (the first time T reaches T0 + `rise` [K], as `chemistry.solve_ignition`).
 
-    **Raises:** `InputError` for bad `times` or `rise`; inside jit, if a reactor does not ignite
-    before the last time."""
+    **Raises:** `InputError` for bad `times` or `rise`; `SolverFailed` with advice if a
+    reactor's solve fails or it does not ignite before the last time."""
     _check(mechanism, batch, group_size)
     times = check_range("times", times, 0.0)
     if times.ndim != 1 or times.size < 2:
         raise InputError(f"times has shape {times.shape}; expected (n_t,) with n_t >= 2.")
     check_increasing("times", times)
     rise = check_scalar("rise", rise, 0.0, low_open=True)
-    temperature, delay, steps = ignition_program(mechanism, batch, jnp.asarray(times), settings, rise, group_size)
+    temperature, delay, steps = ignition_checked(ignition_program, mechanism, batch, jnp.asarray(times), settings,
+                                                 rise, group_size, times=times, rise=rise, what="the batch's ignitions")
     return IgnitionBatchResult(times, np.asarray(temperature), np.asarray(delay), np.asarray(steps))
 
 

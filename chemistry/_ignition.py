@@ -96,14 +96,21 @@ def solve_ignition(mechanism: Mechanism, concentrations, case: IgnitionCase, tim
     **Raises:** `SolverFailed` with advice if the solve fails or the temperature never reaches
     T0 + `rise` before the last of `times`."""
     times = np.asarray(times, float)
+    temperature, delay, steps = ignition_checked(
+        _exported_ignition, mechanism, jnp.asarray(concentrations, float), jnp.asarray(case.temperature, float),
+        jnp.asarray(times), settings, rise, times=times, rise=rise, what="the ignition")
+    return IgnitionResult(times, np.asarray(temperature), float(delay), int(steps))
+
+
+def ignition_checked(program, *args, times, rise: float, what: str):
+    """`snapo_ode.call_checked(program, *args)` for a program of ignitions saved at `times` [s]
+    with delays at T0 + `rise` [K]: a failure also names the other cause of a NaN delay, an
+    ignition after the last saved time."""
     try:
-        temperature, delay, steps = call_checked(
-            _exported_ignition, mechanism, jnp.asarray(concentrations, float), jnp.asarray(case.temperature, float),
-            jnp.asarray(times), settings, rise, what="the ignition")
+        return call_checked(program, *args, what=what)
     except SolverFailed as failure:
         raise SolverFailed(f"{failure} Or the temperature never reached T0 + {rise:g} K before the last saved time "
-                           f"({times[-1]:g} s): integrate longer or lower `rise`.") from failure
-    return IgnitionResult(np.asarray(times), np.asarray(temperature), float(delay), int(steps))
+                           f"({float(times[-1]):g} s): integrate longer or lower `rise`.") from failure
 
 
 @eqx.filter_jit

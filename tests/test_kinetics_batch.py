@@ -27,7 +27,7 @@ from chemistry import (
 from chemistry._ignition import trajectory_and_delay
 from chemistry._reactor import Reactor, simulate
 from chemistry._sensitivities import with_multipliers
-from snapo_ode import InputError
+from snapo_ode import InputError, SolverFailed
 from snapo_ode.cli import main
 
 H2O2 = Path(cantera.__file__).parent / "data" / "h2o2.yaml"
@@ -87,6 +87,12 @@ def test_batched_ignitions_in_groups_equal_single_solves(mechanism, batch):
         np.testing.assert_allclose(result.temperature[i], trajectory.temperature, rtol=1e-10, atol=0)
         assert result.steps[i] == int(trajectory.solution.stats["num_accepted_steps"])
     assert np.all(result.delay < times[-1]) and np.all(result.temperature[:, -1] > 2000.0)
+
+
+def test_a_reactor_that_does_not_ignite_in_time_fails_the_batch_with_advice(mechanism, batch):
+    early = np.linspace(0.0, 4.5e-4, 7)  # the slowest delay is ~0.6 ms, the fastest ~0.3 ms
+    with pytest.raises(SolverFailed, match=r"never reached T0 \+ 400 K before the last saved time \(0.00045 s\)"):
+        solve_ignition_batch(mechanism, batch, early, group_size=3)
 
 
 def test_batched_gradients_match_central_bumps_of_the_batch(mechanism, batch):

@@ -22,7 +22,7 @@ def test_sensitivities_json_has_the_issue_keys(tmp_path, capsys):
     assert list(study["cqas"]) == list(CQA_NAMES)
     assert all(list(study["matrix"][cqa]) == list(CPP_NAMES) for cqa in CQA_NAMES)
     assert study["mode"] == "reverse" and study["passes"] == 5
-    assert study["reference_solver"]["differentiation"] == "forward"  # the reference checks the adjoint too
+    assert study["reference_solver"]["differentiation"] == "forward"  # the other mode: it checks the adjoint too
     assert study["max_rel_diff_fd"] <= 1e-5 and study["max_rel_diff_fd_parameters"] <= 1e-5
     assert study["reference_rel_error"] <= 1e-6
     assert len(study["parameter_sensitivities"]["impurity"]) == 43

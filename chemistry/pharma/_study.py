@@ -21,13 +21,19 @@ from ._sensitivities import (
     prefetch_jacobian, resolve_mode)
 
 REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="kvaerno5", nonstiff_solver="kvaerno5",
-                                 max_steps=20000, differentiation="forward")
+                                 max_steps=20000)
 """The reference Jacobian's solver: a different method (ESDIRK Kvaerno5 on every unit) from the
-default (Rodas5 and Tsit5), differentiated the other way (forward mode, one tangent per input,
-against the study's reverse passes), so that `reference_rel_error` checks the method, the step
-and the adjoint. Forward mode also traces in half the time of reverse mode through Kvaerno5's
-root finder (5 s against 10.5 s, the critical path of a cold `snapo pharma sensitivities`) and
-runs in about the same (0.16-0.24 s against 0.18 s)."""
+default (Rodas5 and Tsit5), so that `reference_rel_error` checks the method and the step.
+`sensitivity_study` differentiates it by the other mode from the study's (`other_mode`)."""
+
+
+def other_mode(mode: str) -> str:
+    """The reference's mode for a study in `mode`: the other one, so that the reference also
+    checks the study's derivative. For the default reverse study that is forward mode, which
+    also traces in half the time of reverse mode through Kvaerno5's root finder (5 s against
+    10.5 s, the critical path of a cold `snapo pharma sensitivities` then) and runs in about the
+    same (0.16-0.24 s against 0.18 s)."""
+    return "forward" if mode == "reverse" else "reverse"
 BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
 """The central differences' solver: an error far below their step."""
 BUMP_RELATIVE_STEP = 1e-3
@@ -152,7 +158,7 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumps, referen
         steps = jnp.asarray(bump_steps(flatten_inputs(inputs)[0], BUMP_RELATIVE_STEP, 0.0))
         prefetch_checked(bumps, inputs, (), steps)
     if reference is not None:
-        prefetch_jacobian(chain.with_solver(reference), inputs, True, reference.differentiation)
+        prefetch_jacobian(chain.with_solver(reference), inputs, True, other_mode(mode))
 
 
 def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
@@ -160,7 +166,7 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
                       max_solver_error: float = MAX_SOLVER_ERROR) -> SensitivityStudy:
     """Every CQA's sensitivity to every CPP and parameter at `cpps`, timed, next to Richardson
     central differences (at `BUMP_SOLVER`'s tolerances) and the Jacobian at `reference`'s
-    tolerances (None: skipped). Errors against the reference above `max_solver_error`
+    tolerances by the other mode (`other_mode`; `reference` None: skipped). Errors against the reference above `max_solver_error`
     (relative) are warnings in the result (`solver_error_warnings`)."""
     inputs = chain.inputs(cpps)
     mode = resolve_mode(mode, len(input_names(chain)))
@@ -186,12 +192,12 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
         jac, timing = sensitivities(chain, inputs, mode=mode, repeats=repeats)
         seconds, compile_seconds = timing.median_seconds, timing.compile_seconds
     if reference is not None:
-        tight, _ = sensitivities(chain.with_solver(reference), inputs, mode=reference.differentiation, repeats=1)
+        tight, _ = sensitivities(chain.with_solver(reference), inputs, mode=other_mode(mode), repeats=1)
         values, tight_values = np.asarray(jac.values), np.asarray(tight.values)
         checks.update(reference_rel_error=agreement(jac.columns(CPP_NAMES), tight.columns(CPP_NAMES)).max_rel_diff,
                       reference_rel_error_parameters=agreement(jac.matrix, tight.matrix, scales=scales).max_rel_diff,
                       reference_cqa_rel_error=float(np.max(np.abs(values - tight_values) / np.abs(tight_values))),
-                      reference_solver=reference.as_dict())
+                      reference_solver=reference.replace(differentiation=other_mode(mode)).as_dict())
     parameters = parameter_names(chain)
     return SensitivityStudy(
         cpps=cpps.as_dict(),
