@@ -137,6 +137,8 @@ def jacobian(fn: Callable, inputs, *args, mode: JacobianMode = "auto", names: Se
         (matrix,) = jax.vmap(pullback)(jnp.eye(values.shape[0], dtype=values.dtype))
     else:
         tangents = jnp.eye(flat.shape[0], dtype=flat.dtype)
+        # The values do not depend on the tangent: they come out of the vmapped JVP once
+        # (out_axes None) instead of from a second evaluation (a second solve of a model).
         values, matrix = jax.vmap(lambda tangent: jax.jvp(flat_fn, (flat,), (tangent,)), out_axes=(None, 1))(tangents)
     n_outputs = values.shape[0]
     names = tuple(input_names(inputs) if names is None else names)

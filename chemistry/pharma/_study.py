@@ -26,6 +26,12 @@ REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="kvaerno5", nons
 default (Rodas5 and Tsit5), so that `reference_rel_error` checks the method and the step.
 `sensitivity_study` differentiates it by the other mode from the study's (`other_mode`)."""
 
+BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
+"""The central differences' solver: an error far below their step."""
+BUMP_RELATIVE_STEP = 1e-3
+"""Relative step of the Richardson central differences (error O(h^4), so the solver's error over h
+stays far below 1e-5)."""
+
 
 def other_mode(mode: str) -> str:
     """The reference's mode for a study in `mode`: the other one, so that the reference also
@@ -34,11 +40,6 @@ def other_mode(mode: str) -> str:
     10.5 s, the critical path of a cold `snapo pharma sensitivities` then) and runs in about the
     same (0.16-0.24 s against 0.18 s)."""
     return "forward" if mode == "reverse" else "reverse"
-BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
-"""The central differences' solver: an error far below their step."""
-BUMP_RELATIVE_STEP = 1e-3
-"""Relative step of the Richardson central differences (error O(h^4), so the solver's error over h
-stays far below 1e-5)."""
 
 
 def by_name(matrix, columns) -> dict:
@@ -166,8 +167,9 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
                       max_solver_error: float = MAX_SOLVER_ERROR) -> SensitivityStudy:
     """Every CQA's sensitivity to every CPP and parameter at `cpps`, timed, next to Richardson
     central differences (at `BUMP_SOLVER`'s tolerances) and the Jacobian at `reference`'s
-    tolerances by the other mode (`other_mode`; `reference` None: skipped). Errors against the reference above `max_solver_error`
-    (relative) are warnings in the result (`solver_error_warnings`)."""
+    tolerances by the other mode (`other_mode`; `reference` None: skipped). Errors against the
+    reference above `max_solver_error` (relative) are warnings in the result
+    (`solver_error_warnings`)."""
     inputs = chain.inputs(cpps)
     mode = resolve_mode(mode, len(input_names(chain)))
     scales = input_scales(inputs)
