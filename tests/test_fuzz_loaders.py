@@ -83,3 +83,10 @@ def test_mutated_mechanism_yaml(tmp_path, mechanism_lines, data):
     mechanism = loads_or_input_error(lambda: Mechanism.from_yaml(path))
     if mechanism is not None:
         assert mechanism.n_species > 0
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_a_huge_finite_rate_loads_without_an_overflow_warning():
+    # The reachable inventory overflows to inf, which compares right; NumPy used to warn.
+    inputs = gs.make_inputs({**FACILITY, "max_injection": 1e308}, gs.sample_curve())
+    assert float(inputs.max_injection) == 1e308

@@ -117,7 +117,9 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
     rate = check_scalar("rate", facility["rate"], -1.0, 1.0)
     check_scalar("volatility", volatility, 0.0, 10.0)
     check_scalar("mean_reversion", mean_reversion, 0.0, 1e4)
-    reachable = initial + (1 - fuel_loss) * max_injection * injection_ratchet[:, 1].max() * curve.size
+    # In Python floats: a huge (finite) max_injection overflows to inf, which compares right,
+    # without NumPy's overflow warning.
+    reachable = initial + (1 - fuel_loss) * max_injection * float(injection_ratchet[:, 1].max()) * curve.size
     if terminal > min(reachable, capacity) + 1e-9 * capacity:
         raise InputError(
             f"terminal_inventory_min = {terminal:g} cannot be reached: at most {min(reachable, capacity):g} "
