@@ -62,6 +62,10 @@ _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deseri
 _PREFETCHED: dict[pathlib.Path, concurrent.futures.Future] = {}  # entry -> its reading, under way
 
 
+_ARRAYS = (jax.Array, np.ndarray, np.generic)
+"""What `describe` keys as an array (by dtype and shape), and `ExportedProgram._path`'s memo alike."""
+
+
 class Unkeyable(TypeError):
     """An argument of an exported program has no description that is the same in every process."""
 
@@ -77,7 +81,7 @@ def describe(tree, *, values: bool = False):
     qualified name. **Raises:** `Unkeyable` for a closure, a lambda or an unknown object."""
     if isinstance(tree, jax.core.Tracer):
         raise Unkeyable("a traced value (called inside jit): nothing to export")
-    if isinstance(tree, (jax.Array, np.ndarray, np.generic)):
+    if isinstance(tree, _ARRAYS):
         described = ["array", str(tree.dtype), list(np.shape(tree)), bool(getattr(tree, "weak_type", False))]
         return described + [hashlib.sha256(np.asarray(tree).tobytes()).hexdigest()] if values else described
     if tree is None or isinstance(tree, (bool, int, float, complex, str, bytes)):
@@ -227,7 +231,7 @@ class ExportedProgram:
         settings = (jax.config.jax_enable_x64, str(jax.config.jax_default_matmul_precision),
                     getattr(equinox_errors, "EQX_ON_ERROR", None), jax.config.jax_compilation_cache_dir)
         leaves = tuple((str(leaf.dtype), np.shape(leaf), bool(getattr(leaf, "weak_type", False)))
-                       if isinstance(leaf, (jax.Array, np.ndarray, np.generic))
+                       if isinstance(leaf, _ARRAYS)
                        and not isinstance(leaf, jax.core.Tracer) else id(leaf) for leaf in every)
         try:
             memo = (structure, leaves, settings)

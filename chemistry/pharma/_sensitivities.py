@@ -94,11 +94,11 @@ def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mes
     """As `jacobian_function`, for many points at once: a function of a sequence of inputs ->
     a list of (CQAs (5,), Jacobian (5, n)) as NumPy arrays. Every point is dispatched before
     any result is read, so that JAX runs one while Python dispatches the next (measured on 100
-    points: 16.6-17.9 ms a point against 18.1-25 ms read one by one). With a samples `mesh`, the points go to this
-    process's devices of it in turn; without, through the program on disk (`jacobian_function`).
-    Not through `shard_map`: the reverse pass of
-    equinox's checkpointed while loop refuses to run inside it ("Closure-converted function
-    called with different dynamic arguments")."""
+    points: 16.6-17.9 ms a point against 18.1-25 ms read one by one). With a samples `mesh`,
+    the points go to this process's devices of it in turn; without, through the program on disk
+    (`jacobian_function`). Not through `shard_map`: the reverse pass of equinox's checkpointed
+    while loop refuses to run inside it ("Closure-converted function called with different
+    dynamic arguments")."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
     devices = [None] if mesh is None else [d for d in mesh.devices.flat if d.process_index == jax.process_index()]
 

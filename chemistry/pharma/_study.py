@@ -25,7 +25,6 @@ REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="kvaerno5", nons
 """The reference Jacobian's solver: a different method (ESDIRK Kvaerno5 on every unit) from the
 default (Rodas5 and Tsit5), so that `reference_rel_error` checks the method and the step.
 `sensitivity_study` differentiates it by the other mode from the study's (`other_mode`)."""
-
 BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
 """The central differences' solver: an error far below their step."""
 BUMP_RELATIVE_STEP = 1e-3
