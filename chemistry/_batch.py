@@ -29,7 +29,7 @@ import numpy as np
 from snapo_ode import (
     InputError, SolverSettings, call_checked, check_count, check_increasing, check_range, check_scalar)
 
-from ._ignition import IGNITION_RISE, ignition_checked, trajectory_and_delay
+from ._ignition import IGNITION_RISE, late_ignition, trajectory_and_delay
 from ._mechanism import Mechanism
 from ._reactor import REACTOR_SOLVER, Reactor
 from ._sensitivities import temperature_at, with_multipliers
@@ -221,8 +221,9 @@ def solve_ignition_batch(mechanism: Mechanism, batch: IgnitionBatch, times, *,
         raise InputError(f"times has shape {times.shape}; expected (n_t,) with n_t >= 2.")
     check_increasing("times", times)
     rise = check_scalar("rise", rise, 0.0, low_open=True)
-    temperature, delay, steps = ignition_checked(ignition_program, mechanism, batch, jnp.asarray(times), settings,
-                                                 rise, group_size, times=times, rise=rise, what="the batch's ignitions")
+    temperature, delay, steps = call_checked(ignition_program, mechanism, batch, jnp.asarray(times), settings, rise,
+                                             group_size, what="the batch's ignitions",
+                                             causes=(late_ignition(times, rise),))
     return IgnitionBatchResult(times, np.asarray(temperature), np.asarray(delay), np.asarray(steps))
 
 

@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import InputError, SolverFailed, SolverSettings, call_checked, check_range, exported
+from snapo_ode import InputError, SolverSettings, call_checked, check_range, exported
 
 from ._mechanism import Mechanism
 from ._reactor import REACTOR_SOLVER, Reactor, Trajectory, simulate
@@ -96,21 +96,17 @@ def solve_ignition(mechanism: Mechanism, concentrations, case: IgnitionCase, tim
     **Raises:** `SolverFailed` with advice if the solve fails or the temperature never reaches
     T0 + `rise` before the last of `times`."""
     times = np.asarray(times, float)
-    temperature, delay, steps = ignition_checked(
+    temperature, delay, steps = call_checked(
         _exported_ignition, mechanism, jnp.asarray(concentrations, float), jnp.asarray(case.temperature, float),
-        jnp.asarray(times), settings, rise, times=times, rise=rise, what="the ignition")
+        jnp.asarray(times), settings, rise, what="the ignition", causes=(late_ignition(times, rise),))
     return IgnitionResult(times, np.asarray(temperature), float(delay), int(steps))
 
 
-def ignition_checked(program, *args, times, rise: float, what: str):
-    """`snapo_ode.call_checked(program, *args)` for a program of ignitions saved at `times` [s]
-    with delays at T0 + `rise` [K]: a failure also names the other cause of a NaN delay, an
-    ignition after the last saved time."""
-    try:
-        return call_checked(program, *args, what=what)
-    except SolverFailed as failure:
-        raise SolverFailed(f"{failure} Or the temperature never reached T0 + {rise:g} K before the last saved time "
-                           f"({float(times[-1]):g} s): integrate longer or lower `rise`.") from failure
+def late_ignition(times, rise: float) -> str:
+    """The advice on a NaN delay for `snapo_ode.call_checked`'s `causes`: the temperature did not
+    reach T0 + `rise` [K] before the last of `times` [s]."""
+    return (f"the temperature never reached T0 + {rise:g} K before the last saved time ({float(times[-1]):g} s): "
+            "integrate longer or lower `rise`.")
 
 
 @eqx.filter_jit

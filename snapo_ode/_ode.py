@@ -12,6 +12,7 @@ verbs, studies, benchmarks) call through it.
 
 import contextlib
 import functools
+from collections.abc import Sequence
 
 import diffrax
 import equinox as eqx
@@ -39,13 +40,15 @@ class SolverFailed(RuntimeError):
     """An ODE solve failed (max_steps, step-size collapse, a diverged implicit solve)."""
 
 
-def raise_if_failed(outputs, what: str = "the computation") -> None:
+def raise_if_failed(outputs, what: str = "the computation", causes: Sequence[str] = ()) -> None:
     """Raise `SolverFailed` with advice if any leaf of `outputs` (concrete arrays, after the
-    compiled call returned) is not finite: the mark a failed check leaves under `call_checked`."""
+    compiled call returned) is not finite: the mark a failed check leaves under `call_checked`.
+    `causes`: the model's own checks that leave the same mark, each as "what happened: what to
+    do" (a domain's `error_if` messages), named after the solver's."""
     for leaf in jax.tree.leaves(outputs):
         if not np.all(np.isfinite(to_host(leaf))):
             raise SolverFailed(f"{what} gave non-finite values: an ODE solve failed. Either "
-                               + " Or ".join(_FAILURE_MESSAGES))
+                               + " Or ".join((*_FAILURE_MESSAGES, *causes)))
 
 
 def _callbacks_in(jaxpr) -> int:
@@ -97,14 +100,15 @@ def _runtime_checks_as_nan():
         equinox_errors.EQX_ON_ERROR = previous
 
 
-def call_checked(fn, *args, what: str = "the computation", **kwargs):
+def call_checked(fn, *args, what: str = "the computation", causes: Sequence[str] = (), **kwargs):
     """`fn(*args, **kwargs)` for a jitted `fn`, with every equinox runtime check in it (ours, and
     those of lineax and optimistix inside derivatives of implicit solves) traced as a NaN mark
     rather than a host callback, so that JAX's persistent compilation cache stores the program
     and a second process does not compile it again.
 
-    **Returns:** the outputs. **Raises:** `SolverFailed` (via `raise_if_failed`, naming `what`)
-    if any output is not finite, which is how a failed check shows.
+    **Returns:** the outputs. **Raises:** `SolverFailed` (via `raise_if_failed`, naming `what`
+    and advising on the solver's failures and on the model's own `causes`) if any output is not
+    finite, which is how a failed check shows.
 
     Traces made inside `call_checked` are kept apart from those made outside it (see
     `_runtime_checks_as_nan`), so a plain call of the same function still raises."""
@@ -112,7 +116,7 @@ def call_checked(fn, *args, what: str = "the computation", **kwargs):
     relieve_mappings_after_compiles()
     with _runtime_checks_as_nan():
         out = fn(*args, **kwargs)
-    raise_if_failed(out, what)
+    raise_if_failed(out, what, causes)
     return out
 
 

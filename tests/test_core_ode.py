@@ -54,6 +54,19 @@ def test_through_call_checked_the_failure_raises_on_the_host_with_advice():
         eqx.filter_jit(lambda k: _solve(k, max_steps=4))(K).block_until_ready()
 
 
+def test_a_models_own_check_is_named_among_the_causes():
+    """A domain's `error_if` leaves the same NaN mark as a failed solve; `causes` names it."""
+    def fraction_left(k):
+        y = _solve(k, max_steps=4096)
+        return eqx.error_if(y[0], y[0] > 0.5, "too little converted")
+
+    cause = "less than half of A converted: integrate longer"
+    with pytest.raises(SolverFailed, match="max_steps") as failure:
+        call_checked(jax.jit(fraction_left), K * 1e-6, what="the conversion", causes=(cause,))
+    assert str(failure.value).endswith(f" Or {cause}")
+    assert float(call_checked(jax.jit(fraction_left), K, causes=(cause,))) < 0.5
+
+
 def test_backsolve_and_throw_are_refused_before_compiling():
     with pytest.raises(InputError, match="BacksolveAdjoint"):
         diffeqsolve_checked(diffrax.ODETerm(_robertson), diffrax.Kvaerno5(), 0.0, 1.0, None,
