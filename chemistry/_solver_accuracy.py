@@ -1,8 +1,9 @@
 """`snapo bench accuracy`, study "stiff": error against wall time of stiff solves, one line per
-solver, its points the tolerances. Ours (`snapo_ode.Rodas4`, Diffrax's Kvaerno5 and Tsit5 through
-`snapo_ode.SolverSettings`) next to Cantera's CVODES (`ReactorNet`) and SciPy's BDF, Radau and
-LSODA on the same right-hand side (`scaled_problem`, its closed-form Jacobian; the JAX functions
-compiled once and called from NumPy):
+solver, its points the tolerances. Ours (`snapo_ode.Rodas5`, the reactors' default, and
+`snapo_ode.Rodas4`; Diffrax's Kvaerno5 and Tsit5 through `snapo_ode.SolverSettings`) next to
+Cantera's CVODES (`ReactorNet`) and SciPy's BDF, Radau and LSODA on the same right-hand side
+(`scaled_problem`, its closed-form Jacobian; the JAX functions compiled once and called from
+NumPy):
 
 - Robertson's kinetics to t = 1e5 s (Hairer & Wanner's stiff test; stiffness ratio ~5e8 there);
 - h2o2 and gri30 constant-volume ignition (the built-in cases) to their sensitivity times, late
@@ -27,9 +28,9 @@ from ._mechanism import Mechanism
 from ._reactor import REACTOR_SOLVER, Reactor, simulate
 
 TARGET = 1e-6
-SOLVERS = {"Rodas4 (ours)": "rodas4", "Kvaerno5 (Diffrax)": "kvaerno5", "Tsit5 (Diffrax, explicit)": "tsit5",
-           "SUNDIALS CVODE (host)": "cvode", "SciPy BDF (host)": "scipy-bdf", "SciPy Radau (host)": "scipy-radau",
-           "SciPy LSODA (host)": "scipy-lsoda"}
+SOLVERS = {"Rodas5 (ours, default)": "rodas5", "Rodas4 (ours)": "rodas4", "Kvaerno5 (Diffrax)": "kvaerno5",
+           "Tsit5 (Diffrax, explicit)": "tsit5", "SUNDIALS CVODE (host)": "cvode", "SciPy BDF (host)": "scipy-bdf",
+           "SciPy Radau (host)": "scipy-radau", "SciPy LSODA (host)": "scipy-lsoda"}
 """Every solver run through `SolverSettings` on the same model: Diffrax's in the compiled program,
 the peers on the host (`snapo_ode._host_solve`)."""
 HOST_NOTE = ("Host solvers (SUNDIALS CVODE through scikit-sundae, SciPy) call our compiled right-hand side "
@@ -127,9 +128,9 @@ def stiff_study(args):
               chain_solver_panel((1e-6, 1e-8) if quick else rtols[2:], repeats)]
     if not quick:
         panels.insert(2, ignition_panel("gri30", (1e-6, 1e-8, 1e-10), 3))
-    text = ("What a given accuracy costs with each stiff solver. Our Rodas4 (a Rosenbrock method: one "
-            "Jacobian and one LU a step, no Newton iteration; the reactors now default to its order-5 sibling "
-            "Rodas5), against Diffrax's ESDIRK Kvaerno5 and explicit Tsit5, "
+    text = ("What a given accuracy costs with each stiff solver. Our Rosenbrock methods Rodas5 (order 5, "
+            "8 stages; the reactors' default) and Rodas4 (order 4, 6 stages), each one Jacobian and one LU a "
+            "step and no Newton iteration, against Diffrax's ESDIRK Kvaerno5 and explicit Tsit5, "
             "Cantera's CVODES (variable-order BDF) and SciPy's BDF, Radau and LSODA on the same right-hand side. "
             "The peers' times are their own (Cantera in C++, SciPy in Python calling our compiled right-hand side "
             "and Jacobian).")

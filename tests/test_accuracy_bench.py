@@ -56,7 +56,8 @@ def test_the_page_plots_and_csvs_are_written(bench):
 
 
 @pytest.mark.parametrize(("panel", "method"), [
-    ("stiff_robertson", "Rodas4 (ours)"), ("stiff_h2o2_ignition", "Cantera CVODES (C++)"),
+    ("stiff_robertson", "Rodas4 (ours)"), ("stiff_robertson", "Rodas5 (ours, default)"),
+    ("stiff_h2o2_ignition", "Rodas5 (ours, default)"), ("stiff_h2o2_ignition", "Cantera CVODES (C++)"),
     ("stiff_pharma_chain", "Rodas5 + Tsit5 (default)"),
 ])
 def test_errors_fall_as_the_tolerance_tightens(bench, panel, method):
@@ -67,7 +68,8 @@ def test_every_stiff_panel_has_ours_and_a_peer_and_names_failures(bench):
     panels = bench[1]
     for name in ("stiff_robertson", "stiff_h2o2_ignition"):
         methods = {row["method"] for row in panels[name]["rows"] if row["y"] is not None}
-        assert "Rodas4 (ours)" in methods and {"SciPy Radau (host)", "SciPy BDF (host)"} <= methods
+        assert {"Rodas5 (ours, default)", "Rodas4 (ours)"} <= methods
+        assert {"SciPy Radau (host)", "SciPy BDF (host)"} <= methods
     # Tsit5 cannot cross Robertson's stiff stretch: a listed failure, never a plotted NaN.
     tsit5 = _line(panels["stiff_robertson"], "Tsit5 (Diffrax, explicit)")
     assert tsit5 and all(row["failure"] and row["y"] is None for row in tsit5)
