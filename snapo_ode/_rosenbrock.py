@@ -133,9 +133,19 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
       state: a reactor differentiates its temperature with one tangent, so that the
       temperature-only rate constants are not carried through every concentration tangent
       (measured on gri30: 0.46 ms against 1.0 ms a Jacobian).
+    - `unroll_stages`: False (default): the stages between the first and the last run in a
+      `jax.lax.fori_loop` over the tableau's rows, so the vector field is traced and compiled
+      once for them, not once per stage. True: every stage written out in the program.
+      Measured (2026-11-25, 2-core CPU, values identical): the loop traces and compiles 25-40%
+      faster (h2o2 ignition gradient: trace 11.6 -> 7.0 s, compile 16.2 -> 10.6 s; the pharma
+      chain's reverse-mode Jacobian 11.8 -> 8.5 s and 13.8 -> 10.7 s), runs forward solves
+      in the same time and reverse passes up to 10% slower on a small system (h2o2 gradient
+      55 -> 60 ms; gri30 +2%; the pharma chain the same). Unroll for long sweeps of gradients
+      of one small model, where the run outweighs the compile.
     """
 
     jacobian: eqx.AbstractVar[Callable | None]
+    unroll_stages: eqx.AbstractVar[bool]
     tableau: eqx.AbstractClassVar[RosenbrockTableau]
 
     term_structure: ClassVar = diffrax.AbstractTerm
@@ -181,23 +191,44 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
         matrix = jnp.eye(y0_flat.size, dtype=dtype) / (tableau.gamma * h) - jacobian
         factors = jsl.lu_factor(jax.lax.stop_gradient(matrix))
 
-        stages = []
-        for i in range(len(tableau.alpha)):
-            if i == 0:
-                rate_i = f0
-            else:
-                y_i = y0_flat + sum(tableau.a[i, j] * stages[j] for j in range(i))
-                rate_i = rate(t0 + tableau.alpha[i] * h, y_i)
-                rate_i = rate_i + sum(tableau.c[i, j] * stages[j] for j in range(i)) / h
-            if tableau.gamma_sum[i] != 0.0:
-                rate_i = rate_i + (tableau.gamma_sum[i] * h) * dfdt
-            stages.append(_solve(factors, matrix, rate_i))
+        def stage_rate(alpha, gamma_sum, y_i, combined):
+            """The right-hand side of a stage's solve at t0 + `alpha` h and `y_i`, given
+            sum_j c_ij k_j (`combined`); a stage whose `gamma_sum` is a literal 0 skips df/dt."""
+            rate_i = rate(t0 + alpha * h, y_i) + combined / h
+            if isinstance(gamma_sum, float) and gamma_sum == 0.0:
+                return rate_i
+            return rate_i + (gamma_sum * h) * dfdt
+
         last = len(tableau.alpha) - 1
-        y1_flat = y0_flat + sum(tableau.a[last, j] * stages[j] for j in range(last)) + stages[last]
+        first = _solve(factors, matrix, f0 + (tableau.gamma_sum[0] * h) * dfdt)
+        if self.unroll_stages:
+            stages = [first]
+            for i in range(1, last + 1):
+                y_i = y0_flat + sum(tableau.a[i, j] * stages[j] for j in range(i))
+                combined = sum(tableau.c[i, j] * stages[j] for j in range(i))
+                rhs = stage_rate(tableau.alpha[i], tableau.gamma_sum[i], y_i, combined)
+                stages.append(_solve(factors, matrix, rhs))
+            y_last, k_last = y_i, stages[last]
+        else:
+            # The middle stages in a loop over rows of the tableau: the vector field is traced
+            # once for them instead of once per stage (see `AbstractRosenbrock`).
+            a, c, alpha, gamma_sum = (jnp.asarray(x, dtype) for x in (tableau.a, tableau.c, tableau.alpha,
+                                                                       tableau.gamma_sum))
+
+            def middle_stage(i, stages):
+                rhs = stage_rate(alpha[i], gamma_sum[i], y0_flat + a[i] @ stages, c[i] @ stages)
+                return stages.at[i].set(_solve(factors, matrix, rhs))
+
+            stages = jnp.zeros((last, y0_flat.size), dtype).at[0].set(first)
+            stages = jax.lax.fori_loop(1, last, middle_stage, stages)
+            y_last = y0_flat + a[last] @ stages
+            k_last = _solve(factors, matrix, stage_rate(tableau.alpha[last], tableau.gamma_sum[last], y_last,
+                                                        c[last] @ stages))
+        y1_flat = y_last + k_last
         y1_flat = jnp.where(still, y0_flat, y1_flat)
         y1 = unravel(y1_flat)
         f1 = rate(t0 + h, y1_flat)
-        error = jnp.where(still, 0.0, stages[last])
+        error = jnp.where(still, 0.0, k_last)
         dense_info = dict(y0=y0, y1=y1, k0=unravel(h * f0), k1=unravel(h * f1))
         return y1, unravel(error), dense_info, f1, diffrax.RESULTS.successful
 
@@ -207,6 +238,7 @@ class Rodas4(AbstractRosenbrock):
     and stiffly accurate (Hairer & Wanner). Arguments: as `AbstractRosenbrock`."""
 
     jacobian: Callable | None = None
+    unroll_stages: bool = eqx.field(static=True, default=False)
     tableau: ClassVar[RosenbrockTableau] = RODAS4_TABLEAU
 
 
@@ -216,5 +248,6 @@ class Rodas5(AbstractRosenbrock):
     Arguments: as `AbstractRosenbrock`."""
 
     jacobian: Callable | None = None
+    unroll_stages: bool = eqx.field(static=True, default=False)
     tableau: ClassVar[RosenbrockTableau] = RODAS5_TABLEAU
 

@@ -75,6 +75,10 @@ class SolverSettings(eqx.Module):
       - "backsolve": `diffrax.BacksolveAdjoint`, refused on stiff solves (its backward solve
         diverges there: max_steps, or gradients near 1e297).
     - `checkpoints`: of the reverse adjoint; `None` is `max_steps` (see above).
+    - `unroll_stages` (Rosenbrock only): False (default) runs the middle stages of a step in a
+      loop, traced and compiled once (25-40% less time to the first result); True writes every
+      stage out, which runs reverse passes of small systems up to 10% faster
+      (measured: `snapo_ode._rosenbrock.AbstractRosenbrock`).
     """
 
     rtol: float = eqx.field(static=True, default=1e-8)
@@ -90,6 +94,7 @@ class SolverSettings(eqx.Module):
     max_steps: int = eqx.field(static=True, default=20_000)
     differentiation: Differentiation = eqx.field(static=True, default="reverse")
     checkpoints: int | None = eqx.field(static=True, default=None)
+    unroll_stages: bool = eqx.field(static=True, default=False)
 
     def __check_init__(self):
         for name in ("rtol", "atol") + (("root_rtol",) if self.root_rtol is not None else ()) + (
@@ -101,6 +106,7 @@ class SolverSettings(eqx.Module):
         check_choice("differentiation", self.differentiation, get_args(Differentiation))
         check_range("kappa", self.kappa, 0.0, 1.0, low_open=True)
         check_count("max_steps", self.max_steps, 1)
+        check_choice("unroll_stages", self.unroll_stages, (False, True))
         if self.checkpoints is not None:
             check_count("checkpoints", self.checkpoints, 1)
 
@@ -118,7 +124,7 @@ class SolverSettings(eqx.Module):
         if name in HOST_SOLVERS:
             raise InputError(f"solver = {name!r} runs on the host and has no Diffrax method: call solve().")
         if name in _ROSENBROCK:
-            return _ROSENBROCK[name](jacobian=jacobian)
+            return _ROSENBROCK[name](jacobian=jacobian, unroll_stages=self.unroll_stages)
         if name in _EXPLICIT:
             return _EXPLICIT[name]()
         rtol = self.rtol if self.root_rtol is None else self.root_rtol

@@ -23,7 +23,10 @@ def _exact(t, y0, rate):
     return np.sin(t) + y0 * np.exp(-rate * t)
 
 
-@pytest.mark.parametrize("solver, slopes", [(Rodas4(), (3.6, 4.6)), (Rodas5(), (4.6, 5.6))], ids=["rodas4", "rodas5"])
+@pytest.mark.parametrize("solver, slopes", [
+    (Rodas4(), (3.6, 4.6)), (Rodas5(), (4.6, 5.6)),
+    (Rodas4(unroll_stages=True), (3.6, 4.6)), (Rodas5(unroll_stages=True), (4.6, 5.6)),
+], ids=["rodas4", "rodas5", "rodas4-unrolled", "rodas5-unrolled"])
 def test_order_of_convergence_on_a_non_autonomous_problem(solver, slopes):
     # Classical order needs rate * dt small: in the stiff regime (rate * dt >> 1) Rosenbrock
     # methods lose order on this problem (Hairer & Wanner, sec. IV.15). Leaving out the df/dt
@@ -97,6 +100,18 @@ def test_reverse_and_forward_mode_derivatives_match_central_bumps(solver):
     scale = np.abs(bumps).max(axis=1, keepdims=True)
     assert np.max(np.abs(reverse - bumps) / scale) < 1e-6
     assert np.max(np.abs(forward - bumps) / scale) < 1e-6
+
+
+@pytest.mark.parametrize("method", [Rodas4, Rodas5], ids=["rodas4", "rodas5"])
+def test_stages_in_a_loop_and_unrolled_are_the_same_method(method):
+    """The default step loops over its middle stages (traced once); unrolled, every stage is
+    written out. The same arithmetic: equal values and reverse-mode derivatives."""
+    looped, unrolled = method(), method(unroll_stages=True)
+    np.testing.assert_allclose(np.asarray(jax.jit(lambda k: _solve(k, looped))(K)),
+                               np.asarray(jax.jit(lambda k: _solve(k, unrolled))(K)), rtol=1e-12, atol=1e-20)
+    np.testing.assert_allclose(np.asarray(jax.jit(jax.jacrev(lambda k: _solve(k, looped)))(K)),
+                               np.asarray(jax.jit(jax.jacrev(lambda k: _solve(k, unrolled)))(K)), rtol=1e-9,
+                               atol=1e-20)
 
 
 @SOLVERS

@@ -175,6 +175,7 @@ def test_backsolve_adjoint_is_refused_before_any_compile(decay):
     (lambda m: Reactor(m, "constant-pressure", pressure=0.0), "pressure"),
     (lambda m: SolverSettings(rtol=2.0), "rtol"),
     (lambda m: SolverSettings(root_finder="secant"), "root_finder"),
+    (lambda m: SolverSettings(unroll_stages="yes"), "unroll_stages"),
     (lambda m: simulate(Reactor(m), 600.0, jnp.ones(2), TIMES), "concentrations"),
     (lambda m: simulate(Reactor(m), -5.0, jnp.ones(3), TIMES), "temperature"),
     (lambda m: simulate(Reactor(m), 600.0, jnp.ones(3), TIMES[::-1]), "times"),
