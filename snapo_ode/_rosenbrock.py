@@ -139,9 +139,11 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
       Measured (2026-11-25, 2-core CPU, values identical): the loop traces and compiles 25-40%
       faster (h2o2 ignition gradient: trace 11.6 -> 7.0 s, compile 16.2 -> 10.6 s; the pharma
       chain's reverse-mode Jacobian 11.8 -> 8.5 s and 13.8 -> 10.7 s), runs forward solves
-      in the same time and reverse passes up to 10% slower on a small system (h2o2 gradient
-      55 -> 60 ms; gri30 +2%; the pharma chain the same). Unroll for long sweeps of gradients
-      of one small model, where the run outweighs the compile.
+      in the same time and reverse passes 10% slower on a small system (h2o2 gradient 55 -> 61
+      ms; gri30 +2%; the pharma chain the same), and in half of the processes 2x slower (h2o2
+      117-123 ms, the chain 18.6 ms once in three: XLA's two CPU threads contending over the
+      loop; pinned to one core, never). Unroll for long sweeps of gradients, where the run
+      outweighs the compile.
     """
 
     jacobian: eqx.AbstractVar[Callable | None]

@@ -77,7 +77,8 @@ class SolverSettings(eqx.Module):
     - `checkpoints`: of the reverse adjoint; `None` is `max_steps` (see above).
     - `unroll_stages` (Rosenbrock only): False (default) runs the middle stages of a step in a
       loop, traced and compiled once (25-40% less time to the first result); True writes every
-      stage out, which runs reverse passes of small systems up to 10% faster
+      stage out, which runs reverse passes of small systems 10% faster and without the loop's
+      occasional 2x slowdown on two CPU threads
       (measured: `snapo_ode._rosenbrock.AbstractRosenbrock`).
     """
 
