@@ -40,10 +40,9 @@ scaled state [T / T0, N_k / N_total0], 20,000 steps at most; for Kvaerno5, the c
 (Newton takes fewer steps before an ignition but stalls after the front). Rodas5 rather than
 Rodas4: h2o2 ignition to 0.27 ms at rtol 1e-10 takes it 201 + 38 steps against 649 + 41, and ends
 nearer the converged temperature (6e-6 K off against 1.3e-5 K); 5x faster. Its stages unrolled
-(`unroll_stages`): reactors run in sweeps and benchmarks against Cantera, where the run counts.
-Unrolled, the h2o2 gradient ran in 54-57 ms in six processes; with the stages in a loop in
-61-64 ms, and in 117-123 ms in half of the processes (XLA's two threads contending over the loop:
-pinned to one core, 61 ms every time), for 4.5 s less trace and 4.6 s less compile."""
+(`unroll_stages`): reactors run in sweeps and benchmarks against Cantera, where the run counts,
+and there the stage loop's reverse pass was the slower (the h2o2 gradient: measured in
+`snapo_ode._rosenbrock.AbstractRosenbrock`)."""
 
 
 class Reactor(eqx.Module):
