@@ -8,15 +8,20 @@ The conditions: T0 uniform in [T_case - 50 K, T_case] and P0 in [0.5, 1] x the c
 time, as the single bench's reactor is (hotter starts ignite before it, and the bench would time
 the burnt gas instead). Our programs are compiled ahead of time (`lower().compile()`, timed as
 the compile) and then run `repeats` times (the median is reported): a gri30 batch of 256 runs
-for minutes, and a warm-up run would double that."""
+for minutes on a CPU, and a warm-up run would double that. `SINGLE_CHECKS` of the batch's
+reactors are also solved alone, and the largest relative difference is reported: the batch must
+give what single solves give (to 1e-10) on whatever device it ran."""
 
 import statistics
 import time
 
+import equinox as eqx
 import numpy as np
+from tqdm import tqdm
 
 from ._batch import IgnitionBatch, temperature_program
 from ._ignition import IgnitionCase
+from ._sensitivities import temperature_at
 
 TEMPERATURE_SPAN = 50.0
 """T0 spans [T_case - TEMPERATURE_SPAN, T_case] [K]."""
@@ -28,6 +33,8 @@ what grouping conditions sorted by T0 (alike step counts) saves."""
 GRADIENT_SAMPLE = 16
 """Reactors (evenly spaced through the sorted batch) whose gradients are timed, as one vmap: 256
 gri30 reverse passes would take ~15 minutes, and their memory (a checkpoint a step) grows with N."""
+SINGLE_CHECKS = 3
+"""Reactors (the first, middle and last of the sorted batch) also solved one at a time."""
 
 
 def batch_conditions(mechanism, case: IgnitionCase, size: int, seed: int = 0) -> IgnitionBatch:
@@ -63,6 +70,16 @@ def cantera_serial(path, batch: IgnitionBatch, end_time: float, repeats: int, *,
     return statistics.median(runs), np.array(temperatures)
 
 
+def single_solve_difference(mechanism, batch: IgnitionBatch, temperature, end, settings) -> float:
+    """The largest relative difference between `temperature` [K] (shape `(N,)`, the batch's T at
+    `end`) and single solves of `SINGLE_CHECKS` of its reactors (`chemistry.temperature_at`)."""
+    single = eqx.filter_jit(temperature_at)
+    indices = np.unique(np.linspace(0, batch.size - 1, min(batch.size, SINGLE_CHECKS)).astype(int))
+    return max(abs(float(temperature[i]) / float(single(batch.log_multiplier[i], mechanism, batch.temperature[i],
+                                                          batch.concentrations[i], end, settings)) - 1)
+               for i in indices)
+
+
 def _compiled_and_timed(fn, args: tuple, repeats: int):
     """Compile `fn` (an `equinox.filter_jit` function) for `args` ahead of time, then run it
     `repeats` times: (compile seconds, median run seconds, the outputs)."""
@@ -91,15 +108,28 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
     batch = batch_conditions(mechanism, case, size)
     end = jnp.asarray(end_time)
     group = GROUP_SIZE if size > GROUP_SIZE else None
+    stages = tqdm(total=5, desc=f"{name} batch of {size}", unit="stage")  # minutes on a CPU
+    stages.set_postfix_str("forward, one vmap")
     forward_compile, forward, temperature = _compiled_and_timed(
         temperature_program, (mechanism, batch, end, settings, None, False), repeats)
+    stages.update()
+    stages.set_postfix_str(f"forward, groups of {group}")
     grouped_compile, grouped, _ = _compiled_and_timed(
         temperature_program, (mechanism, batch, end, settings, group, False), repeats) if group else (None,) * 3
+    stages.update()
+    stages.set_postfix_str("gradients")
     sample = jax.tree.map(lambda x: x[np.linspace(0, size - 1, min(size, GRADIENT_SAMPLE)).astype(int)], batch)
     gradient_compile, gradient, _ = _compiled_and_timed(
         temperature_program, (mechanism, sample, end, settings, None, True), repeats)
+    stages.update()
+    stages.set_postfix_str("single solves")
+    single_difference = single_solve_difference(mechanism, batch, temperature, end, settings)
+    stages.update()
+    stages.set_postfix_str("Cantera, serially")
     cantera, cantera_temperature = cantera_serial(path, batch, end_time, repeats, rtol=settings.rtol,
                                                   atol=settings.atol)
+    stages.update()
+    stages.close()
     forward, gradient, cantera = forward / size, gradient / sample.size, cantera / size  # per reactor
     grouped = grouped and grouped / size
     errors = np.abs(np.asarray(temperature) / cantera_temperature - 1)
@@ -118,5 +148,7 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
         "batch_forward_grouped_speedup_vs_cantera_serial": grouped and cantera / grouped,
         "batch_gradient_speedup_vs_cantera_serial_forward": cantera / gradient,
         "batch_max_relative_difference_vs_cantera": float(np.max(errors)),
+        "batch_max_relative_difference_vs_single": single_difference,
+        "batch_single_reactors": min(size, SINGLE_CHECKS),
         "batch_repeats": max(repeats, 1),
     }

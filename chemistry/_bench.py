@@ -85,6 +85,7 @@ def benchmark_mechanism(name: str, repeats: int, batch: int | None = None) -> di
                                               CANTERA_SENSITIVITY_REPEATS[name])
     row = {
         "mechanism": name, "parameters": mechanism.n_reactions, "end_time_s": end_time,
+        "device": f"{jax.default_backend()}: {jax.devices()[0].device_kind}",  # ours; Cantera on the host's CPU
         "rtol": RTOL, "atol": ATOL, "cantera_sensitivity_tolerance": SENSITIVITY_TOLERANCE,
         "forward_s": forward.median_seconds, "forward_compile_s": forward.compile_seconds,
         "gradient_s": gradient.median_seconds, "gradient_compile_s": gradient.compile_seconds,
@@ -109,12 +110,13 @@ COLUMNS = (
 
 
 BATCH_COLUMNS = (
-    Column("mechanism", "mechanism"), Column("reactors", "batch"),
+    Column("mechanism", "mechanism"), Column("reactors", "batch"), Column("our device", "device"),
     Column("our batch forward ms/reactor", "batch_forward_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
     Column("the same in sorted groups", "batch_forward_grouped_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
     Column("our gradient ms/reactor (vmapped sample)", "batch_gradient_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
     Column("Cantera serial ms/reactor", "cantera_serial_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
     Column("forward vs Cantera", "batch_forward_speedup_vs_cantera_serial", lambda v: f"{v:.2f}x"),
+    Column("batch vs single solves", "batch_max_relative_difference_vs_single", ".1e"),
     Column("gradient vs Cantera forward", "batch_gradient_speedup_vs_cantera_serial_forward", lambda v: f"{v:.2f}x"),
     Column("compile s (forward)", "batch_forward_compile_s", ".0f"),
     Column("compile s (gradient)", "batch_gradient_compile_s", ".0f"),
