@@ -37,6 +37,13 @@ SINGLE_CHECKS = 3
 """Reactors (the first, middle and last of the sorted batch) also solved one at a time."""
 
 
+def device() -> str:
+    """What runs our solves, e.g. "gpu: NVIDIA H200" or "cpu: cpu" (Cantera runs on the host's CPU)."""
+    import jax
+
+    return f"{jax.default_backend()}: {jax.devices()[0].device_kind}"
+
+
 def batch_conditions(mechanism, case: IgnitionCase, size: int, seed: int = 0) -> IgnitionBatch:
     """`size` reactors around `case` (see the module docstring), sorted by T0."""
     rng = np.random.default_rng(seed)
@@ -96,6 +103,22 @@ def _compiled_and_timed(fn, args: tuple, repeats: int):
     return compile_seconds, statistics.median(runs), out
 
 
+def _forward_against_cantera(path, mechanism, batch: IgnitionBatch, end_time: float, settings, repeats: int,
+                             cantera_repeats: int):
+    """Our batch's forward solve (one vmap, compiled ahead of time, median of `repeats` runs) and
+    Cantera's serial runs (median of `cantera_repeats`) on the same conditions: (compile seconds,
+    our seconds, Cantera's seconds, our T [K] (shape `(N,)`), the largest relative difference from
+    Cantera's T)."""
+    import jax.numpy as jnp
+
+    compile_seconds, forward, temperature = _compiled_and_timed(
+        temperature_program, (mechanism, batch, jnp.asarray(end_time), settings, None, False), repeats)
+    cantera, cantera_temperature = cantera_serial(path, batch, end_time, cantera_repeats, rtol=settings.rtol,
+                                                  atol=settings.atol)
+    difference = float(np.max(np.abs(np.asarray(temperature) / cantera_temperature - 1)))
+    return compile_seconds, forward, cantera, temperature, difference
+
+
 def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, end_time: float, settings,
                     repeats: int) -> dict:
     """The batch fields of the kinetics bench's row for mechanism `name`: per-reactor times and
@@ -108,10 +131,10 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
     batch = batch_conditions(mechanism, case, size)
     end = jnp.asarray(end_time)
     group = GROUP_SIZE if size > GROUP_SIZE else None
-    stages = tqdm(total=5, desc=f"{name} batch of {size}", unit="stage")  # minutes on a CPU
-    stages.set_postfix_str("forward, one vmap")
-    forward_compile, forward, temperature = _compiled_and_timed(
-        temperature_program, (mechanism, batch, end, settings, None, False), repeats)
+    stages = tqdm(total=4, desc=f"{name} batch of {size}", unit="stage")  # minutes on a CPU
+    stages.set_postfix_str("forward, one vmap; Cantera, serially")
+    forward_compile, forward, cantera, temperature, cantera_difference = _forward_against_cantera(
+        path, mechanism, batch, end_time, settings, repeats, repeats)
     stages.update()
     stages.set_postfix_str(f"forward, groups of {group}")
     grouped_compile, grouped, _ = _compiled_and_timed(
@@ -125,14 +148,9 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
     stages.set_postfix_str("single solves")
     single_difference = single_solve_difference(mechanism, batch, temperature, end, settings)
     stages.update()
-    stages.set_postfix_str("Cantera, serially")
-    cantera, cantera_temperature = cantera_serial(path, batch, end_time, repeats, rtol=settings.rtol,
-                                                  atol=settings.atol)
-    stages.update()
     stages.close()
     forward, gradient, cantera = forward / size, gradient / sample.size, cantera / size  # per reactor
     grouped = grouped and grouped / size
-    errors = np.abs(np.asarray(temperature) / cantera_temperature - 1)
     return {
         "batch": size, "batch_group_size": group or size,
         "batch_temperature_min_K": float(batch.temperature.min()),
@@ -147,8 +165,32 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
         "batch_forward_speedup_vs_cantera_serial": cantera / forward,
         "batch_forward_grouped_speedup_vs_cantera_serial": grouped and cantera / grouped,
         "batch_gradient_speedup_vs_cantera_serial_forward": cantera / gradient,
-        "batch_max_relative_difference_vs_cantera": float(np.max(errors)),
+        "batch_max_relative_difference_vs_cantera": cantera_difference,
         "batch_max_relative_difference_vs_single": single_difference,
         "batch_single_reactors": min(size, SINGLE_CHECKS),
         "batch_repeats": max(repeats, 1),
     }
+
+
+def benchmark_scaling(name: str, path, mechanism, case: IgnitionCase, sizes, end_time: float, settings,
+                      repeats: int) -> list[dict]:
+    """One row per N in `sizes`: the per-reactor time of our batched forward solve (one vmap of N
+    reactors, `batch_conditions`) and of Cantera run serially on the same N conditions, side by
+    side: how batching amortises as N grows (on a GPU, until the device is full). Cantera runs
+    the N reactors once per size (N solves already; at N = 4096, ~25 s)."""
+    rows = []
+    for size in tqdm(sizes, desc=f"{name} batch scaling", unit="size"):
+        batch = batch_conditions(mechanism, case, size)
+        compile_seconds, forward, cantera, _, difference = _forward_against_cantera(
+            path, mechanism, batch, end_time, settings, repeats, 1)
+        forward, cantera = forward / size, cantera / size  # per reactor
+        rows.append({
+            "mechanism": name, "batch": size, "device": device(),
+            "end_time_s": end_time, "rtol": settings.rtol, "atol": settings.atol,
+            "batch_forward_s_per_reactor": forward, "batch_forward_reactors_per_s": 1 / forward,
+            "batch_forward_compile_s": compile_seconds,
+            "cantera_serial_s_per_reactor": cantera, "cantera_serial_reactors_per_s": 1 / cantera,
+            "batch_forward_speedup_vs_cantera_serial": cantera / forward,
+            "batch_max_relative_difference_vs_cantera": difference, "batch_repeats": max(repeats, 1),
+        })
+    return rows

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 
 from snapo_ode import Column, call_checked, format_table, time_function, write_table
 
-from ._batch_bench import benchmark_batch
+from ._batch_bench import benchmark_batch, benchmark_scaling, device
 from ._ignition import IGNITION_CASES, initial_concentrations
 from ._mechanism import Mechanism
 from ._reactor import REACTOR_SOLVER
@@ -58,9 +58,10 @@ def cantera_seconds(path, case, end_time: float, sensitivities: bool, repeats: i
     return statistics.median(runs), reactor.phase.T
 
 
-def benchmark_mechanism(name: str, repeats: int, batch: int | None = None) -> dict:
+def benchmark_mechanism(name: str, repeats: int, batch: int | None = None, scaling=()) -> tuple[dict, list[dict]]:
     """One row of the benchmark for built-in case `name` ("h2o2" or "gri30"); with `batch`, also
-    the fields of `benchmark_batch` (that many reactors solved as one batch, and Cantera serially)."""
+    the fields of `benchmark_batch` (that many reactors solved as one batch, and Cantera serially).
+    And the rows of `benchmark_scaling` for the batch sizes `scaling` (none if empty)."""
     import cantera
 
     path = pathlib.Path(cantera.__file__).parent / "data" / f"{name}.yaml"
@@ -85,7 +86,7 @@ def benchmark_mechanism(name: str, repeats: int, batch: int | None = None) -> di
                                               CANTERA_SENSITIVITY_REPEATS[name])
     row = {
         "mechanism": name, "parameters": mechanism.n_reactions, "end_time_s": end_time,
-        "device": f"{jax.default_backend()}: {jax.devices()[0].device_kind}",  # ours; Cantera on the host's CPU
+        "device": device(),
         "rtol": RTOL, "atol": ATOL, "cantera_sensitivity_tolerance": SENSITIVITY_TOLERANCE,
         "forward_s": forward.median_seconds, "forward_compile_s": forward.compile_seconds,
         "gradient_s": gradient.median_seconds, "gradient_compile_s": gradient.compile_seconds,
@@ -96,7 +97,7 @@ def benchmark_mechanism(name: str, repeats: int, batch: int | None = None) -> di
     }
     if batch is not None:
         row.update(benchmark_batch(name, path, mechanism, case, batch, end_time, settings, repeats))
-    return row
+    return row, benchmark_scaling(name, path, mechanism, case, scaling, end_time, settings, repeats)
 
 
 COLUMNS = (
@@ -123,11 +124,24 @@ BATCH_COLUMNS = (
 )
 
 
+SCALING_COLUMNS = (
+    Column("mechanism", "mechanism"), Column("reactors", "batch"), Column("our device", "device"),
+    Column("our batch forward ms/reactor", "batch_forward_s_per_reactor", lambda v: f"{1e3 * v:.2f}"),
+    Column("Cantera serial ms/reactor", "cantera_serial_s_per_reactor", lambda v: f"{1e3 * v:.2f}"),
+    Column("forward vs Cantera", "batch_forward_speedup_vs_cantera_serial", lambda v: f"{v:.2f}x"),
+    Column("T vs Cantera", "batch_max_relative_difference_vs_cantera", ".1e"),
+    Column("compile s", "batch_forward_compile_s", ".0f"),
+)
+
+
 def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), repeats: int = 5,
-                           batch: int | None = None) -> list[dict]:
+                           batch: int | None = None, scaling=()) -> list[dict]:
     """Print the table and write `bench_kinetics.json` and `bench_kinetics.csv` under `out`; with
-    `batch`, a second table of the batched solves (the same rows carry its fields)."""
-    rows = [benchmark_mechanism(name, repeats, batch) for name in mechanisms]
+    `batch`, a second table of the batched solves (the same rows carry its fields); with batch
+    sizes `scaling`, a third table, written as `bench_kinetics_scaling.{csv,json}`."""
+    results = [benchmark_mechanism(name, repeats, batch, scaling) for name in mechanisms]
+    rows = [row for row, _ in results]
+    scaling_rows = [row for _, rows_of_one in results for row in rows_of_one]
     print(f"constant-volume adiabatic ignition to late induction, rtol {RTOL:g} / atol {ATOL:g} (Cantera's "
           f"sensitivities {SENSITIVITY_TOLERANCE:g}); medians after compile")
     print(format_table(rows, COLUMNS))
@@ -136,6 +150,12 @@ def run_kinetics_benchmark(out: pathlib.Path, *, mechanisms=("h2o2", "gri30"), r
               f"our gradients vmapped over a sample of them, Cantera serially; per reactor, medians of "
               f"{rows[0]['batch_repeats']} run(s) after an ahead-of-time compile")
         print(format_table(rows, BATCH_COLUMNS))
+    if scaling_rows:
+        print(f"our forward solves as one vmap of N reactors, Cantera serially on the same N; per reactor, medians "
+              f"of {scaling_rows[0]['batch_repeats']} run(s) after an ahead-of-time compile (Cantera: one run)")
+        print(format_table(scaling_rows, SCALING_COLUMNS))
     paths = write_table(out, "bench_kinetics", rows)
+    if scaling_rows:
+        paths += write_table(out, "bench_kinetics_scaling", scaling_rows)
     print(f"  written: {', '.join(map(str, paths))}")
     return rows

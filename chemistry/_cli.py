@@ -37,7 +37,10 @@ def run_bench(args) -> int:
 
     if args.batch is not None:
         check_count("--batch", args.batch, 1)
-    run_kinetics_benchmark(args.out, mechanisms=args.mechanisms, repeats=args.repeats, batch=args.batch)
+    for size in args.batch_scaling:
+        check_count("--batch-scaling", size, 1)
+    run_kinetics_benchmark(args.out, mechanisms=args.mechanisms, repeats=args.repeats, batch=args.batch,
+                           scaling=args.batch_scaling)
     return 0
 
 
@@ -82,6 +85,9 @@ def register_kinetics(cli: CommandLine) -> None:
     bench.add_argument("--batch", type=int, metavar="N", help="also N reactors from spread initial states, per "
                        "reactor: our forward solves as one batch, our gradients vmapped over a sample, Cantera "
                        "serially (gri30 with N = 256 and --repeats 1: ~15 minutes on 2 cores)")
+    bench.add_argument("--batch-scaling", type=int, nargs="+", default=[], metavar="N", help="also, at each N, "
+                       "our forward solves as one batch and Cantera serially on the same N reactors, per reactor "
+                       "(bench_kinetics_scaling.{csv,json}): how batching amortises as N grows (on a GPU)")
     bench.set_defaults(handler=run_bench)
     cli.accuracy("stiff", stiff_accuracy)
     data = pathlib.Path(importlib.util.find_spec("cantera").origin).parent / "data"  # without importing Cantera

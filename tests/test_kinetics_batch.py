@@ -176,7 +176,7 @@ def test_bad_solve_arguments_are_refused_before_compiling(monkeypatch, mechanism
 
 def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
     assert main(["bench", "kinetics", "--out", str(tmp_path), "--mechanisms", "h2o2", "--repeats", "1",
-                 "--batch", "3"]) == 0
+                 "--batch", "3", "--batch-scaling", "1", "2"]) == 0
     (row,) = json.loads((tmp_path / "bench_kinetics.json").read_text())["rows"]
     assert row["mechanism"] == "h2o2" and row["parameters"] == 29 and row["batch"] == 3
     # The single bench's row stays. Equal tolerances, not equal errors: Cantera's atol 1e-14 is on
@@ -193,4 +193,11 @@ def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
     assert row["batch_forward_speedup_vs_cantera_serial"] == pytest.approx(
         row["cantera_serial_s_per_reactor"] / row["batch_forward_s_per_reactor"])
     assert "batch_gradient_compile_s" in (tmp_path / "bench_kinetics.csv").read_text().splitlines()[0]
+    scaling = json.loads((tmp_path / "bench_kinetics_scaling.json").read_text())["rows"]
+    assert [r["batch"] for r in scaling] == [1, 2] and all(r["device"] == row["device"] for r in scaling)
+    for r in scaling:
+        assert r["batch_forward_speedup_vs_cantera_serial"] == pytest.approx(
+            r["cantera_serial_s_per_reactor"] / r["batch_forward_s_per_reactor"])
+        assert r["batch_max_relative_difference_vs_cantera"] < 1e-5
     assert main(["bench", "kinetics", "--out", str(tmp_path), "--batch", "0"]) == 2
+    assert main(["bench", "kinetics", "--out", str(tmp_path), "--batch-scaling", "4", "0"]) == 2
