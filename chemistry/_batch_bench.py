@@ -10,7 +10,8 @@ the burnt gas instead). Our programs are compiled ahead of time (`lower().compil
 the compile) and then run `repeats` times (the median is reported): a gri30 batch of 256 runs
 for minutes on a CPU, and a warm-up run would double that. `SINGLE_CHECKS` of the batch's
 reactors are also solved alone, and the largest relative difference is reported: the batch must
-give what single solves give (to 1e-10) on whatever device it ran."""
+give what single solves give (to 1e-10) on whatever device it ran. Likewise the batched gradients
+are checked against central differences (`BUMP_CHECKS` of them) on that device."""
 
 import statistics
 import time
@@ -18,6 +19,8 @@ import time
 import equinox as eqx
 import numpy as np
 from tqdm import tqdm
+
+from snapo_ode import agreement, central_differences
 
 from ._batch import IgnitionBatch, temperature_program
 from ._ignition import IgnitionCase
@@ -35,6 +38,12 @@ GRADIENT_SAMPLE = 16
 gri30 reverse passes would take ~15 minutes, and their memory (a checkpoint a step) grows with N."""
 SINGLE_CHECKS = 3
 """Reactors (the first, middle and last of the sorted batch) also solved one at a time."""
+BUMP_CHECKS = 3
+"""Reactions whose batched d ln T / d ln A (the gradient sample's first reactor, its largest
+sensitivities) are checked against Richardson central differences of single solves."""
+BUMP_STEP = 1e-3
+"""The central differences' step in ln A (Richardson: error O(h^4), the solver's rtol over h far
+below the agreement asked)."""
 
 
 def device() -> str:
@@ -103,6 +112,26 @@ def _compiled_and_timed(fn, args: tuple, repeats: int):
     return compile_seconds, statistics.median(runs), out
 
 
+def gradient_bump_difference(mechanism, sample: IgnitionBatch, sensitivities, end, settings) -> float:
+    """The largest relative difference between the batched d ln T / d ln A_i of `sample`'s first
+    reactor (`sensitivities`, shape `(N, n_reactions)`) at its `BUMP_CHECKS` largest and
+    Richardson central differences of its single solves (one vmap of 4 x `BUMP_CHECKS` solves),
+    on the device the batch ran on."""
+    import jax.numpy as jnp
+
+    first = np.asarray(sensitivities[0])
+    reactions = np.argsort(-np.abs(first))[:BUMP_CHECKS]
+
+    def log_temperature(log_multiplier):
+        full = sample.log_multiplier[0].at[reactions].set(log_multiplier)
+        return jnp.log(temperature_at(full, mechanism, sample.temperature[0], sample.concentrations[0], end,
+                                      settings))
+
+    bumped = central_differences(log_temperature, sample.log_multiplier[0][reactions], relative_step=BUMP_STEP,
+                                 richardson=True)
+    return agreement(first[reactions], np.asarray(bumped)).max_rel_diff
+
+
 def _forward_against_cantera(path, mechanism, batch: IgnitionBatch, end_time: float, settings, repeats: int,
                              cantera_repeats: int):
     """Our batch's forward solve (one vmap, compiled ahead of time, median of `repeats` runs) and
@@ -123,15 +152,16 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
                     repeats: int) -> dict:
     """The batch fields of the kinetics bench's row for mechanism `name`: per-reactor times and
     throughputs of our batched forward solve (one vmap, and in groups of `GROUP_SIZE` of the
-    conditions sorted by T0), our gradients (vmapped over `GRADIENT_SAMPLE` of them) and
-    Cantera's serial runs."""
+    conditions sorted by T0), our gradients (vmapped over `GRADIENT_SAMPLE` of them; the first
+    reactor's checked against central differences, `gradient_bump_difference`) and Cantera's
+    serial runs."""
     import jax
     import jax.numpy as jnp
 
     batch = batch_conditions(mechanism, case, size)
     end = jnp.asarray(end_time)
     group = GROUP_SIZE if size > GROUP_SIZE else None
-    stages = tqdm(total=4, desc=f"{name} batch of {size}", unit="stage")  # minutes on a CPU
+    stages = tqdm(total=5, desc=f"{name} batch of {size}", unit="stage")  # minutes on a CPU
     stages.set_postfix_str("forward, one vmap; Cantera, serially")
     forward_compile, forward, cantera, temperature, cantera_difference = _forward_against_cantera(
         path, mechanism, batch, end_time, settings, repeats, repeats)
@@ -142,11 +172,14 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
     stages.update()
     stages.set_postfix_str("gradients")
     sample = jax.tree.map(lambda x: x[np.linspace(0, size - 1, min(size, GRADIENT_SAMPLE)).astype(int)], batch)
-    gradient_compile, gradient, _ = _compiled_and_timed(
+    gradient_compile, gradient, (sensitivities, _) = _compiled_and_timed(
         temperature_program, (mechanism, sample, end, settings, None, True), repeats)
     stages.update()
     stages.set_postfix_str("single solves")
     single_difference = single_solve_difference(mechanism, batch, temperature, end, settings)
+    stages.update()
+    stages.set_postfix_str("gradients against central differences")
+    bump_difference = gradient_bump_difference(mechanism, sample, sensitivities, end, settings)
     stages.update()
     stages.close()
     forward, gradient, cantera = forward / size, gradient / sample.size, cantera / size  # per reactor
@@ -168,6 +201,8 @@ def benchmark_batch(name: str, path, mechanism, case: IgnitionCase, size: int, e
         "batch_max_relative_difference_vs_cantera": cantera_difference,
         "batch_max_relative_difference_vs_single": single_difference,
         "batch_single_reactors": min(size, SINGLE_CHECKS),
+        "batch_gradient_max_relative_difference_vs_bumps": bump_difference,
+        "batch_gradient_bump_checks": min(BUMP_CHECKS, mechanism.n_reactions),
         "batch_repeats": max(repeats, 1),
     }
 
@@ -179,7 +214,7 @@ def benchmark_scaling(name: str, path, mechanism, case: IgnitionCase, sizes, end
     side: how batching amortises as N grows (on a GPU, until the device is full). Cantera runs
     the N reactors once per size (N solves already; at N = 4096, ~25 s)."""
     rows = []
-    for size in tqdm(sizes, desc=f"{name} batch scaling", unit="size"):
+    for size in tqdm(sizes, desc=f"{name} batch scaling", unit="size", disable=not sizes):
         batch = batch_conditions(mechanism, case, size)
         compile_seconds, forward, cantera, _, difference = _forward_against_cantera(
             path, mechanism, batch, end_time, settings, repeats, 1)

@@ -118,6 +118,7 @@ BATCH_COLUMNS = (
     Column("Cantera serial ms/reactor", "cantera_serial_s_per_reactor", lambda v: f"{1e3 * v:.1f}"),
     Column("forward vs Cantera", "batch_forward_speedup_vs_cantera_serial", lambda v: f"{v:.2f}x"),
     Column("batch vs single solves", "batch_max_relative_difference_vs_single", ".1e"),
+    Column("gradient vs bumps", "batch_gradient_max_relative_difference_vs_bumps", ".1e"),
     Column("gradient vs Cantera forward", "batch_gradient_speedup_vs_cantera_serial_forward", lambda v: f"{v:.2f}x"),
     Column("compile s (forward)", "batch_forward_compile_s", ".0f"),
     Column("compile s (gradient)", "batch_gradient_compile_s", ".0f"),

@@ -187,6 +187,7 @@ def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
     assert (tmp_path / "bench_kinetics.csv").read_text().count("\n") == 2
     assert row["batch_max_relative_difference_vs_cantera"] < 1e-5  # equal tolerances, not equal errors
     assert row["batch_max_relative_difference_vs_single"] < 1e-10 and row["batch_single_reactors"] == 3
+    assert row["batch_gradient_max_relative_difference_vs_bumps"] < 1e-5 and row["batch_gradient_bump_checks"] == 3
     assert row["device"].startswith(jax.default_backend())
     for key in ("batch_forward_s_per_reactor", "batch_gradient_s_per_reactor", "cantera_serial_s_per_reactor"):
         assert row[key] > 0
