@@ -45,6 +45,13 @@ and there the stage loop's reverse pass was the slower (the h2o2 gradient: measu
 `snapo_ode._rosenbrock.AbstractRosenbrock`)."""
 
 
+TRIAL_TEMPERATURE_CEILING = 2.0
+"""A trial state hotter than this many times the mechanism's hottest thermo fit
+(`SpeciesThermo.max_temperature`: h2o2 5,000 K, gri30 6,000 K, so 10,000 and 12,000 K) rejects the step
+(see `scaled_problem`): no reactor of the mechanism gets there, and far above the fits the rates
+overflow."""
+
+
 class Reactor(eqx.Module):
     """An ideal reactor of one mechanism.
 
@@ -196,15 +203,19 @@ def scaled_problem(reactor: Reactor, temperature, concentrations, volume=1.0,
         _, d_n = reactor.time_derivatives(temperature, state * amount_scale, volume, parameters)
         return d_n / amount_scale
 
+    ceiling = TRIAL_TEMPERATURE_CEILING * mechanism.thermo.max_temperature / temperature  # scaled
+
     def vector_field(t, state, args):
         # A trial step that overshoots (it is rejected afterwards) can reach a state without
-        # meaning: T <= 0 (log T is NaN) or NaN from an earlier stage. There the field is NaN,
-        # which rejects the step, and it is evaluated at the initial state, so that the reverse
-        # pass through the rejected step meets no 0 * NaN (measured: Rodas5's first trial step
-        # of a gri30 ignition, the whole interval, made every gradient NaN).
+        # meaning: T <= 0 (log T is NaN), T far above the thermo fits (the rates or equilibrium
+        # constants overflow to inf) or NaN from an earlier stage. There the field is NaN, which
+        # rejects the step, and it is evaluated at the initial state, so that the reverse pass
+        # through the rejected step meets no 0 * NaN or 0 * inf (measured: Rodas5's first trial
+        # step of a gri30 ignition, the whole interval, made every gradient NaN; trial states
+        # between 14,500 and 72,500 K made half the gradients of a batch from 1450-1500 K NaN).
         valid = jnp.isfinite(jnp.sum(state))
         if energy:
-            valid = valid & (state[0] > 0.0)
+            valid = valid & (state[0] > 0.0) & (state[0] < ceiling)
         return jnp.where(valid, field(jnp.where(valid, state, state0)), jnp.nan)
 
     def energy_jacobian(t, state, args):

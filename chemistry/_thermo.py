@@ -63,6 +63,9 @@ class SpeciesThermo(eqx.Module):
     - `t0` [K], `h0_r` = h0/R [K], `s0_r` = s0/R [-], `cp0_r` = cp0/R [-]: constant-cp data.
     - `nasa9`: the NASA9 species (`Nasa9`; Shomate ones too, rewritten in NASA9 form), or None
       where there are none: a mechanism without them traces no NASA9 code.
+    - `max_temperature` [K] (static): the hottest end of any species' fitted ranges (NASA7,
+      NASA9, Shomate; inf where none has a range): above it the polynomials extrapolate, and far
+      above it they (and the rates built on them) overflow.
     """
 
     is_nasa: Mask
@@ -74,6 +77,7 @@ class SpeciesThermo(eqx.Module):
     s0_r: Vector
     cp0_r: Vector
     nasa9: Nasa9 | None = None
+    max_temperature: float = eqx.field(static=True, default=float("inf"))
 
     def _nasa(self, temperature):
         # Cantera picks the low range at T <= T_mid.

@@ -61,6 +61,7 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
     low, high = np.zeros((n, 7)), np.zeros((n, 7))
     t0, h0, s0, cp0 = np.full(n, 298.15), np.zeros(n), np.zeros(n), np.zeros(n)
     nasa9_index, nasa9 = [], []
+    fitted_up_to = []  # each fitted species' hottest range end [K]
     for k, (source, node) in enumerate(species_nodes):
         with naming(f"{source.where(node)}: species {node.get('name')!r}"):
             name, units = node["name"], source.units.within(node)
@@ -69,16 +70,16 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
             model = thermo.get("model") if thermo else None
             if model == "NASA7":
                 ranges, data = _polynomials(label, thermo, model, 7)
+                fitted_up_to.append(ranges[-1])
                 is_nasa[k] = True
                 low[k] = data[0]
                 high[k] = data[-1]
                 t_mid[k] = ranges[1] if len(data) == 2 else ranges[-1]
-            elif model == "NASA9":
+            elif model in ("NASA9", "Shomate"):
+                ranges, data = _polynomials(label, thermo, model, 9 if model == "NASA9" else 7)
+                fitted_up_to.append(ranges[-1])
                 nasa9_index.append(k)
-                nasa9.append(_polynomials(label, thermo, model, 9))
-            elif model == "Shomate":
-                nasa9_index.append(k)
-                nasa9.append(_shomate_as_nasa9(*_polynomials(label, thermo, model, 7)))
+                nasa9.append((ranges, data) if model == "NASA9" else _shomate_as_nasa9(ranges, data))
             elif model == "constant-cp":
                 units = units.within(thermo)
                 t0[k] = units.convert(f"species {name} T0", thermo.get("T0", 298.15), "temperature")
@@ -90,7 +91,7 @@ def species_thermo(species_nodes: list[tuple[Source, dict]]) -> SpeciesThermo:
                                  f"supported: {_MODELS}.")
     return SpeciesThermo(jnp.asarray(is_nasa), jnp.asarray(t_mid), jnp.asarray(low), jnp.asarray(high),
                          jnp.asarray(t0), jnp.asarray(h0), jnp.asarray(s0), jnp.asarray(cp0),
-                         _stack_nasa9(nasa9_index, nasa9))
+                         _stack_nasa9(nasa9_index, nasa9), max(fitted_up_to, default=float("inf")))
 
 
 def _molecular_weight(source: Source, node) -> float:

@@ -54,6 +54,34 @@ def test_h2o2_sensitivities_from_hot_starts_are_finite_and_match_cantera(tmp_pat
     assert np.all(np.isfinite([row["ours"] for row in sensitivities["top"]]))
 
 
+def test_gri30_gradients_stay_finite_where_trial_steps_overshoot_and_match_bumps():
+    # Reactors 0 and 51 of `snapo bench kinetics --batch 256` (1450.1 K / 95.1 kPa and 1457.1 K /
+    # 91.9 kPa, late in the induction at 1 ms): every d ln T / d ln A of theirs was NaN, on the
+    # CPU and on a GPU, single or batched, since rejected trial steps reached 14,500-72,500 K,
+    # where the rates overflow and the reverse pass met 0 * inf. Such states now reject the step.
+    from chemistry import IGNITION_CASES, REACTOR_SOLVER, Mechanism, temperature_sensitivities_batch
+    from chemistry._batch_bench import batch_conditions
+    from chemistry._sensitivities import temperature_at
+
+    mechanism = Mechanism.from_yaml(f"{cantera.__file__.rsplit('/', 1)[0]}/data/gri30.yaml")
+    case = IGNITION_CASES["gri30"]
+    sample = jax.tree.map(lambda x: x[np.array([0, 51])], batch_conditions(mechanism, case, 256))
+    settings = REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14, max_steps=4000)
+    sensitivities, _ = temperature_sensitivities_batch(mechanism, sample, case.sensitivity_time, settings=settings)
+    sensitivities = np.asarray(sensitivities)
+    assert np.all(np.isfinite(sensitivities)) and np.abs(sensitivities).max() > 1e-3
+    top = np.argsort(-np.abs(sensitivities[0]))[:3]
+
+    def log_temperature(log_multiplier):
+        full = sample.log_multiplier[0].at[top].set(log_multiplier)
+        return jnp.log(temperature_at(full, mechanism, sample.temperature[0], sample.concentrations[0],
+                                      case.sensitivity_time, settings))
+
+    bumped = snapo_ode.central_differences(log_temperature, sample.log_multiplier[0][top], relative_step=1e-3,
+                                           richardson=True)
+    np.testing.assert_allclose(sensitivities[0][top], bumped, rtol=1e-5)
+
+
 def _robertson(t, y, k):
     a, b, c = y[0], y[1], y[2]
     return jnp.stack([-k[0] * a + k[1] * b * c, k[0] * a - k[1] * b * c - k[2] * b**2, k[2] * b**2])

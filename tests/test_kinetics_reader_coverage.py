@@ -98,6 +98,15 @@ def test_shomate_thermo_matches_cantera_on_either_side_of_its_midpoint(tmp_path)
             assert error.max() <= 1e-12, (temperature, error)
 
 
+@pytest.mark.parametrize("file", ["h2o2.yaml", "gri30.yaml", "airNASA9.yaml", "mixed", "shomate"])
+def test_the_hottest_thermo_fit_is_cantera_s(tmp_path, file):
+    # The reactors reject trial states far above it (chemistry._reactor.TRIAL_TEMPERATURE_CEILING).
+    path = {"mixed": lambda: _write(tmp_path, MIXED), "shomate": lambda: _write(tmp_path, SHOMATE)}.get(
+        file, lambda: DATA / file)()
+    expected = max(species.thermo.max_temp for species in cantera.Solution(str(path)).species())
+    assert Mechanism.from_yaml(path).thermo.max_temperature == expected
+
+
 def test_mixed_nasa9_and_nasa7_rates_match_cantera(tmp_path):
     path = _write(tmp_path, MIXED)
     mechanism = Mechanism.from_yaml(path)
