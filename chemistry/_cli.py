@@ -84,7 +84,7 @@ def register_kinetics(cli: CommandLine) -> None:
     bench.add_argument("--repeats", type=int, default=5)
     bench.add_argument("--batch", type=int, metavar="N", help="also N reactors from spread initial states, per "
                        "reactor: our forward solves as one batch, our gradients vmapped over a sample, Cantera "
-                       "serially (gri30 with N = 256 and --repeats 1: ~15 minutes on 2 cores)")
+                       "serially (gri30 with N = 256 and --repeats 1: ~3-5 minutes on 2 cores, compiles included)")
     bench.add_argument("--batch-scaling", type=int, nargs="+", default=[], metavar="N", help="also, at each N, "
                        "our forward solves as one batch and Cantera serially on the same N reactors, per reactor "
                        "(bench_kinetics_scaling.{csv,json}): how batching amortises as N grows (on a GPU)")
