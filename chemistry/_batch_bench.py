@@ -20,7 +20,7 @@ import equinox as eqx
 import numpy as np
 from tqdm import tqdm
 
-from snapo_ode import agreement, central_differences
+from snapo_ode import agreement, central_differences, raise_if_failed
 
 from ._batch import IgnitionBatch, temperature_program
 from ._ignition import IgnitionCase
@@ -98,7 +98,9 @@ def single_solve_difference(mechanism, batch: IgnitionBatch, temperature, end, s
 
 def _compiled_and_timed(fn, args: tuple, repeats: int):
     """Compile `fn` (an `equinox.filter_jit` function) for `args` ahead of time, then run it
-    `repeats` times: (compile seconds, median run seconds, the outputs)."""
+    `repeats` times: (compile seconds, median run seconds, the outputs). **Raises:**
+    `SolverFailed` if an output is not finite: a time of NaN results is no result (a batch's
+    gradients once were, `chemistry._reactor.TRIAL_TEMPERATURE_CEILING`)."""
     import jax
 
     start = time.perf_counter()
@@ -109,6 +111,7 @@ def _compiled_and_timed(fn, args: tuple, repeats: int):
         start = time.perf_counter()
         out = jax.block_until_ready(compiled(*args))
         runs.append(time.perf_counter() - start)
+    raise_if_failed(out, "the batch bench's program")
     return compile_seconds, statistics.median(runs), out
 
 

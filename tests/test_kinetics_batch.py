@@ -202,3 +202,13 @@ def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
         assert r["batch_max_relative_difference_vs_cantera"] < 1e-5
     assert main(["bench", "kinetics", "--out", str(tmp_path), "--batch", "0"]) == 2
     assert main(["bench", "kinetics", "--out", str(tmp_path), "--batch-scaling", "4", "0"]) == 2
+
+
+def test_the_batch_bench_refuses_to_time_non_finite_results():
+    # Half of a gri30 sample's gradients were once NaN, and the bench timed them as results.
+    from chemistry._batch_bench import _compiled_and_timed
+
+    with pytest.raises(SolverFailed, match="the batch bench's program gave non-finite values"):
+        _compiled_and_timed(eqx.filter_jit(lambda x: jnp.log(x - 1.0)), (jnp.zeros(2),), 1)
+    _, seconds, out = _compiled_and_timed(eqx.filter_jit(lambda x: jnp.log(x + 1.0)), (jnp.zeros(2),), 2)
+    assert seconds > 0 and np.all(np.asarray(out) == 0.0)
