@@ -11,9 +11,8 @@ expected difficulty then waste less (`IgnitionBatch.sorted_by`). Measured by `sn
 --batch 256` on gri30 (T0 1450-1500 K, P0 0.5-1 atm, to 1 ms, rtol 1e-10; a shared 2-core
 machine): 447 ms a reactor as one vmap, 168 ms in groups of 32 sorted by T0; Cantera serially
 10 ms. Batching does not amortise much on a CPU: a vmapped step costs about N single steps. On a
-GPU it does, and one vmap is the setting there (groups run one after the other): on an H200,
-2.13 ms a reactor at N = 256 and 0.54 ms at N = 4096, against Cantera's 7-8 ms serially on the
-host (docs/chemistry.md).
+GPU it does, and one vmap is the setting there (groups run one after the other; measured on an
+H200 against Cantera serially on its host: docs/chemistry.md, "On a GPU").
 
 The reverse passes are vmapped too since the Rosenbrock solvers step a finished reactor (h = 0 in
 the loop's discarded steps) by one ulp instead of forming I / (gamma h) = inf: before, every
