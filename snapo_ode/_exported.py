@@ -6,9 +6,11 @@ Python for the pharma chain's Jacobian, every process. `exported(fn, name=...)` 
 lowered program (`jax.export`) into `<compilation cache dir>/exported/` and, in the next process,
 deserialises it instead of tracing `fn`; its XLA compile then hits the persistent cache.
 `ExportedProgram.prefetch` does either ahead of the call, the reading and the compile in a
-background thread, so that a command's several programs load in parallel.
+background thread, so that a command's several programs load in parallel; with `elsewhere`, a
+missing entry is traced by a helper process (`snapo_ode._export_helper`), so that a first
+process's several traces run side by side too.
 
-An entry's key is everything that shapes the program:
+An entry's key (`snapo_ode._export_keys`) is everything that shapes the program:
 
 - `name`; the arguments' pytree structure, shapes and dtypes, and every non-array leaf (solver
   settings, modes, flags); `static`: what `fn` closes over (a model), array values included;
@@ -31,19 +33,10 @@ differentiated program, custom_vjp and checkpointed loops already lowered.
 """
 
 import concurrent.futures
-import dataclasses
-import enum
 import functools
 import hashlib
-import importlib.metadata
-import importlib.util
-import json
 import os
 import pathlib
-import site
-import sys
-import sysconfig
-import types
 import warnings
 from collections.abc import Callable
 
@@ -52,116 +45,20 @@ import equinox._errors as equinox_errors
 import jax
 import numpy as np
 
+from ._export_keys import _ARRAYS, Unkeyable, _packages, describe, entry_path, environment
 from ._io import atomic_write_bytes
 
-EXPORTED_DIRECTORY = "exported"
-"""The entries' directory, inside the compilation cache directory."""
 _MAGIC = b"snapo-exported 1\n"
-_VERSIONED = ("snapo-ode", "jax", "jaxlib", "equinox", "diffrax", "lineax", "optimistix")
+QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False}
+"""XLA options for a program whose compiles cost more than its runs: on a CPU, XLA's elemental
+emitters instead of its fusion emitters. Measured (2-core CPU, 2026-11-26, each compile in a new
+process): the pharma chain's adjoint 15.7 -> 9.5 CPU-s, its reference 9.0 -> 4.9, its bumps
+5.9 -> 4.7, with the same run times (`snapo bench pharma` side by side); but the kinetics
+gradients ran 24-40% slower with them (`snapo bench kinetics`), so it is chosen per program, not
+made the default."""
+
 _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deserialised program
 _PREFETCHED: dict[pathlib.Path, concurrent.futures.Future] = {}  # entry -> its reading, under way
-
-
-_ARRAYS = (jax.Array, np.ndarray, np.generic)
-"""What `describe` keys as an array (by dtype and shape), and `ExportedProgram._path`'s memo alike."""
-
-
-class Unkeyable(TypeError):
-    """An argument of an exported program has no description that is the same in every process."""
-
-
-def _name(kind: type) -> str:
-    return f"{kind.__module__}.{kind.__qualname__}"
-
-
-def describe(tree, *, values: bool = False):
-    """A JSON-able description of `tree` that is the same in every process: arrays by dtype and
-    shape (and, with `values`, the SHA-256 of their bytes), scalars and strings by value,
-    containers and dataclasses (`equinox.Module`s) field by field, functions and classes by
-    qualified name. **Raises:** `Unkeyable` for a closure, a lambda or an unknown object."""
-    if isinstance(tree, jax.core.Tracer):
-        raise Unkeyable("a traced value (called inside jit): nothing to export")
-    if isinstance(tree, _ARRAYS):
-        described = ["array", str(tree.dtype), list(np.shape(tree)), bool(getattr(tree, "weak_type", False))]
-        return described + [hashlib.sha256(np.asarray(tree).tobytes()).hexdigest()] if values else described
-    if tree is None or isinstance(tree, (bool, int, float, complex, str, bytes)):
-        return [type(tree).__name__, repr(tree)]
-    if isinstance(tree, enum.Enum):
-        return [_name(type(tree)), tree.name]
-    if isinstance(tree, (tuple, list)):
-        return [_name(type(tree)), [describe(leaf, values=values) for leaf in tree]]
-    if isinstance(tree, dict):
-        return [_name(type(tree)), sorted([repr(k), describe(v, values=values)] for k, v in tree.items())]
-    if isinstance(tree, (set, frozenset)):
-        return [_name(type(tree)), sorted(json.dumps(describe(leaf, values=values)) for leaf in tree)]
-    if isinstance(tree, type):
-        return ["class", _name(tree)]
-    if isinstance(tree, types.FunctionType) and tree.__closure__ is None and "<" not in tree.__qualname__:
-        return ["function", f"{tree.__module__}.{tree.__qualname__}"]
-    if dataclasses.is_dataclass(tree):
-        return [_name(type(tree)), [[f.name, describe(getattr(tree, f.name), values=values)]
-                                    for f in dataclasses.fields(tree)]]
-    raise Unkeyable(f"{type(tree).__qualname__} has no description that is the same in every process")
-
-
-def _packages(description) -> set[str]:
-    """The top-level packages of the classes and functions named in a `describe` output."""
-    if not isinstance(description, list):
-        return set()
-    if len(description) == 2 and description[0] in ("class", "function"):
-        return {description[1].split(".")[0]}
-    head = description[0] if description and isinstance(description[0], str) else ""
-    found = {head.split(".")[0]} if "." in head and head.split(".")[0].isidentifier() else set()
-    return found.union(*(_packages(part) for part in description))
-
-
-@functools.cache
-def _source_digest(packages: tuple[str, ...]) -> str:
-    """SHA-256 of every .py file (path and bytes) of those of `packages` that are not installed
-    in site-packages or the standard library (those are keyed by their versions): this project's."""
-    installed = {*site.getsitepackages(), sysconfig.get_paths()["stdlib"]}
-    digest = hashlib.sha256()
-    for package in packages:
-        try:
-            spec = importlib.util.find_spec(package)
-        except (ImportError, ValueError):
-            spec = None
-        for root in (spec and spec.submodule_search_locations) or []:
-            if any(pathlib.Path(root).is_relative_to(place) for place in installed):
-                continue
-            digest.update(package.encode() + b"\0")
-            for path in sorted(pathlib.Path(root).rglob("*.py")):
-                digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
-    return digest.hexdigest()
-
-
-@functools.cache
-def _versions() -> dict:
-    def version(name: str) -> str | None:
-        try:
-            return importlib.metadata.version(name)
-        except importlib.metadata.PackageNotFoundError:
-            return None
-
-    return {"python": sys.version, **{name: version(name) for name in _VERSIONED}}
-
-
-def environment(packages=()) -> dict:
-    """What besides its arguments shapes a program: versions, the source of `snapo_ode` and of
-    `packages` (top-level names), the backend and the JAX settings tracing reads."""
-    return {"versions": _versions(),
-            "source": _source_digest(tuple(sorted({"snapo_ode", *packages}))), "backend": jax.default_backend(),
-            "x64": bool(jax.config.jax_enable_x64), "precision": str(jax.config.jax_default_matmul_precision),
-            "runtime_checks": str(getattr(equinox_errors, "EQX_ON_ERROR", None))}
-
-
-def entry_path(name: str, key: dict) -> pathlib.Path | None:
-    """The file of the program `name` with `key`, or None without a compilation cache directory."""
-    directory = jax.config.jax_compilation_cache_dir
-    if not directory:
-        return None
-    digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:40]
-    return pathlib.Path(directory) / EXPORTED_DIRECTORY / f"{name}-{digest}.jaxexport"
 
 
 def _read(path: pathlib.Path):
@@ -198,19 +95,20 @@ def _export(path: pathlib.Path, flat: Callable, leaves, name: str):
     return jax.export.deserialize(bytearray(serialised))
 
 
-def _load_or_export(path: pathlib.Path, flat: Callable, leaves, name: str) -> Callable:
-    """The program at `path`, else `flat` traced, lowered and written there; jitted. A program
+def _load_or_export(path: pathlib.Path, flat: Callable, leaves, name: str, jit: Callable) -> Callable:
+    """The program at `path`, else `flat` traced, lowered and written there; `jit`ted. A program
     that cannot be exported is `flat` jitted, with a warning."""
     program = _read(path) or _export(path, flat, leaves, name)
-    return jax.jit(flat) if program is None else jax.jit(program.call)
+    return jit(flat) if program is None else jit(program.call)
 
 
 class ExportedProgram:
     """What `exported` returns: call it as the function it wraps; `prefetch` prepares it ahead
     of the call."""
 
-    def __init__(self, fn: Callable, name: str, static):
+    def __init__(self, fn: Callable, name: str, static, compiler_options: dict | None = None):
         self._fn, self._name = fn, name
+        self._jit = functools.partial(jax.jit, compiler_options=compiler_options)
         self._static_key = describe(static, values=True)
         self._packages = _packages(self._static_key) | {(getattr(fn, "__module__", None) or "snapo_ode").split(".")[0]}
         self._recent: dict = {}  # (structure, leaf ids, settings) -> (the leaves, kept alive so ids stay theirs; path)
@@ -265,40 +163,71 @@ class ExportedProgram:
         if path not in _LOADED:
             pending = _PREFETCHED.pop(path, None)
             program = pending.result() if pending is not None and pending.exception() is None else None
-            _LOADED[path] = program or _load_or_export(path, flat, leaves, self._name)
+            _LOADED[path] = program or _load_or_export(path, flat, leaves, self._name, self._jit)
         return _LOADED[path](*leaves)
 
-    def prefetch(self, *args) -> bool:
+    def build(self, args, path: str) -> bool | None:
+        """What a helper process does (`snapo_ode._export_helper`): trace the program for `args`,
+        write its entry and compile it (into the persistent compilation cache), if its entry's
+        path here is `path`, the caller's. **Returns:** True when done, False where the key
+        differs (nothing written), None where the program cannot be exported."""
+        entry, leaves, flat = self._flat(args)
+        if entry is None or str(entry) != path:
+            return False
+        deserialised = _export(entry, flat, leaves, self._name)
+        if deserialised is None:
+            return None
+        self._jit(deserialised.call).lower(*leaves).compile()
+        return True
+
+    def prefetch(self, *args, elsewhere: bool = False) -> bool:
         """Prepare the program for `args` ahead of its call, so that the call finds it compiled:
         an entry on disk is read, and its executable from the compilation cache, in a background
         thread (a warm chain's programs take ~0.2-1.2 s each to read; several prefetched
         together read in parallel while the first runs); a missing entry is traced and written
         here, in the caller's thread, and compiled in the background while the caller traces
-        the next. Prefetch where the call will be made alike (inside
+        the next. With `elsewhere`, a missing entry is traced, written and compiled by a helper
+        process instead (`snapo_ode._export_helper`: tracing holds the interpreter lock, so
+        two traces run side by side only in two processes), and read as from disk when it is
+        done; where no helper can take it (a program defined inside a function, arguments that
+        do not pickle) it is traced here. Prefetch where the call will be made alike (inside
         `snapo_ode.prefetch_checked` for a program called through `call_checked`): the
         runtime-check mode is part of the key, and tracing must see it.
 
-        **Returns:** whether the entry was on disk (False: traced here, or nothing to do)."""
+        **Returns:** whether the entry was on disk (False: traced here or elsewhere, or nothing
+        to do)."""
         path, leaves, flat = self._flat(args)
         if path is None or path in _LOADED or path in _PREFETCHED:
             return False
         on_disk = path.is_file()
-        program = None if on_disk else _export(path, flat, leaves, self._name)
-        if not on_disk and program is None:
-            _LOADED[path] = jax.jit(flat)
-            return False
         precision = jax.config.jax_default_matmul_precision
+        helper = None
+        if not on_disk and elsewhere:
+            from . import _export_helper
+
+            helper = _export_helper.start(self, args, path, cache_dir=jax.config.jax_compilation_cache_dir,
+                                          on_error=getattr(equinox_errors, "EQX_ON_ERROR", None),
+                                          precision=precision)
+        program = None if on_disk or helper is not None else _export(path, flat, leaves, self._name)
+        if not on_disk and helper is None and program is None:
+            _LOADED[path] = self._jit(flat)
+            return False
 
         def prepare() -> Callable | None:
             # An unreadable entry (None) is rebuilt by the call, which traces where the
-            # runtime-check mode is the caller's. JAX's in-memory caches key the executable by
-            # the arguments' placement and the trace context: lowered for the very leaves of the
-            # call, with the caller's matmul precision (thread-local).
-            deserialised = _read(path) if on_disk else program
+            # runtime-check mode is the caller's; so is one whose helper failed. JAX's
+            # in-memory caches key the executable by the arguments' placement and the trace
+            # context: lowered for the very leaves of the call, with the caller's matmul
+            # precision (thread-local).
+            if helper is not None and helper.wait() != 0:
+                warnings.warn(f"snapo: the helper process that traces {self._name} exited with "
+                              f"{helper.returncode}; it is traced by the call instead", stacklevel=2)
+                return None
+            deserialised = program if program is not None else _read(path)
             if deserialised is None:
                 return None
             with jax.default_matmul_precision(precision):
-                jitted = jax.jit(deserialised.call)
+                jitted = self._jit(deserialised.call)
                 jitted.lower(*leaves).compile()
             return jitted
 
@@ -312,7 +241,7 @@ def _prefetcher() -> concurrent.futures.ThreadPoolExecutor:
                                                  thread_name_prefix="snapo-prefetch")
 
 
-def exported(fn: Callable, *, name: str, static=None) -> ExportedProgram:
+def exported(fn: Callable, *, name: str, static=None, compiler_options: dict | None = None) -> ExportedProgram:
     """`fn` (a function of pytrees, its array leaves traced, every other leaf static) as a
     program traced once and kept on disk; see the module docstring.
 
@@ -321,9 +250,11 @@ def exported(fn: Callable, *, name: str, static=None) -> ExportedProgram:
     - `name`: the entry's name (letters, digits, `-`), e.g. "pharma-jacobian".
     - `static`: what `fn` closes over and its program depends on (a model, settings): part of
       the key, array values included. Arguments need not be listed: they are keyed by structure.
+    - `compiler_options`: XLA options its executable is compiled with (`jax.jit`'s; they key the
+      executable in the compilation cache, not the entry), e.g. `QUICK_COMPILE`.
 
     **Returns:** an `ExportedProgram`, a function of the same arguments (with `prefetch`).
     Without a compilation cache directory, or with an argument that cannot be keyed
     (`Unkeyable`: a closure, a traced value), it is `fn` jitted (`equinox.filter_jit`).
     """
-    return ExportedProgram(fn, name, static)
+    return ExportedProgram(fn, name, static, compiler_options)

@@ -120,14 +120,15 @@ def call_checked(fn, *args, what: str = "the computation", causes: Sequence[str]
     return out
 
 
-def prefetch_checked(program, *args) -> bool:
-    """`program.prefetch(*args)` (a `snapo_ode.exported` program, `ExportedProgram.prefetch`)
-    keyed and traced as `call_checked(program, *args)` will look it up: prefetch the programs a
-    command will run before running the first, and those on disk load, and those traced here
-    compile, on other cores while it runs. **Returns:** whether the entry was on disk."""
+def prefetch_checked(program, *args, elsewhere: bool = False) -> bool:
+    """`program.prefetch(*args, elsewhere=elsewhere)` (a `snapo_ode.exported` program,
+    `ExportedProgram.prefetch`) keyed and traced as `call_checked(program, *args)` will look it
+    up: prefetch the programs a command will run before running the first, and those on disk
+    load, and those traced here (or, with `elsewhere`, in a helper process) compile, on other
+    cores while it runs. **Returns:** whether the entry was on disk."""
     _check_equinox_error_mode()
     with _runtime_checks_as_nan():
-        return program.prefetch(*args)
+        return program.prefetch(*args, elsewhere=elsewhere)
 
 
 def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: bool = True, **kwargs):

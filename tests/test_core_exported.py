@@ -19,14 +19,14 @@ import jax.numpy as jnp
 import pytest
 
 import snapo_ode
-from snapo_ode._exported import EXPORTED_DIRECTORY
+from snapo_ode._export_keys import EXPORTED_DIRECTORY
 
 SCRIPT = """
 import json, sys, warnings
 import diffrax, equinox as eqx, jax, jax.numpy as jnp, numpy as np
 from jax._src.dispatch import BACKEND_COMPILE_EVENT
 import snapo_ode
-from snapo_ode._exported import EXPORTED_DIRECTORY
+from snapo_ode._export_keys import EXPORTED_DIRECTORY
 
 snapo_ode.configure()
 compiles, hits, traces = [], [], []
@@ -193,3 +193,88 @@ def test_new_arrays_of_the_same_shapes_reuse_the_entry_without_describing_it_aga
     assert program._flat((jnp.zeros(4),))[0] != first  # another shape
     assert program._flat((jnp.zeros(3, dtype=jnp.int32),))[0] != first  # another dtype
     assert len(described) > count
+
+
+HELPER_MODULE = """
+import diffrax, equinox as eqx, jax, jax.numpy as jnp
+import snapo_ode
+
+traces = []
+
+
+class Decay(eqx.Module):
+    rates: jax.Array
+
+
+def value_and_gradient(model, y0):
+    traces.append(1)  # runs only where the function is traced
+
+    def final(rates):
+        solution = snapo_ode.diffeqsolve_checked(
+            diffrax.ODETerm(lambda t, y, k: -k * y), diffrax.Kvaerno3(), 0.0, 1.0, None, y0, rates,
+            stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-10), max_steps=4096)
+        return jnp.sum(solution.ys[-1] ** 2)
+
+    return jax.value_and_grad(final)(model.rates)
+
+
+program = snapo_ode.exported(value_and_gradient, name="test-helper-decay")
+"""
+
+HELPER_SCRIPT = """
+import json, sys, warnings
+import jax, jax.numpy as jnp, numpy as np
+import snapo_ode
+
+snapo_ode.configure()
+sys.path.insert(0, sys.argv[1])  # the caller's path only: a helper finds the module only on PYTHONPATH
+import helper_decay as m
+
+model, y0 = m.Decay(jnp.linspace(1.0, 1e3, 3)), jnp.ones(3)
+program = m.program if sys.argv[2] == "module" else snapo_ode.exported(m.value_and_gradient, name="test-local")
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    on_disk = snapo_ode.prefetch_checked(program, model, y0, elsewhere=True)
+    value, gradient = snapo_ode.call_checked(program, model, y0)
+plain = jax.jit(m.value_and_gradient)(model, y0)
+print(json.dumps({"traces_here": len(m.traces) - 1, "on_disk": on_disk, "value": float(value),
+                  "gradient": np.asarray(gradient).tolist(), "plain": [float(plain[0]), np.asarray(plain[1]).tolist()],
+                  "warnings": [str(w.message) for w in caught if "snapo" in str(w.message)]}))
+"""
+
+
+def run_elsewhere(cache_dir, module_dir, *, which="module", helper_can_import=True):
+    """HELPER_SCRIPT in a fresh process (its program prefetched `elsewhere`): its JSON line.
+    `traces_here` counts the caller's traces of the program (the plain jit's own trace excluded)."""
+    env = dict(os.environ, SNAPO_CACHE_DIR=str(cache_dir))
+    if helper_can_import:
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(module_dir), os.environ.get("PYTHONPATH")]))
+    out = subprocess.run([sys.executable, "-c", HELPER_SCRIPT, str(module_dir), which], env=env,
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_a_program_prefetched_elsewhere_is_traced_by_a_helper_process_and_gives_the_same_results(tmp_path):
+    (tmp_path / "module").mkdir()
+    (tmp_path / "module" / "helper_decay.py").write_text(HELPER_MODULE)
+    first = run_elsewhere(tmp_path / "cache", tmp_path / "module")
+    # Traced, written and compiled by the helper: the caller read the entry and ran it.
+    assert first["traces_here"] == 0 and not first["on_disk"] and first["warnings"] == []
+    assert len(list((tmp_path / "cache" / EXPORTED_DIRECTORY).glob("test-helper-decay-*"))) == 1
+    assert first["value"] == pytest.approx(first["plain"][0], rel=1e-12, abs=0)
+    assert first["gradient"] == pytest.approx(first["plain"][1], rel=1e-12, abs=1e-300)
+    second = run_elsewhere(tmp_path / "cache", tmp_path / "module")
+    assert second["on_disk"] and second["traces_here"] == 0
+    assert (second["value"], second["gradient"]) == (first["value"], first["gradient"])
+    # A program no helper can import (made inside a function) is traced by the caller, silently.
+    local = run_elsewhere(tmp_path / "cache-local", tmp_path / "module", which="local")
+    assert local["traces_here"] == 1 and local["warnings"] == [] and local["value"] == first["value"]
+
+
+def test_a_failed_helper_process_leaves_the_trace_to_the_call_with_a_warning(tmp_path):
+    (tmp_path / "module").mkdir()
+    (tmp_path / "module" / "helper_decay.py").write_text(HELPER_MODULE)
+    failed = run_elsewhere(tmp_path / "cache", tmp_path / "module", helper_can_import=False)
+    assert failed["traces_here"] == 1
+    assert any("helper process" in warning and "traced by the call" in warning for warning in failed["warnings"])
+    assert failed["value"] == pytest.approx(failed["plain"][0], rel=1e-12, abs=0)

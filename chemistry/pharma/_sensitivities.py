@@ -11,7 +11,7 @@ import numpy as np
 from jax.sharding import NamedSharding
 
 from snapo_ode import (
-    SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, exported, flatten_inputs, jacobian, per_sample,
+    QUICK_COMPILE, SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, exported, flatten_inputs, jacobian, per_sample,
     prefetch_checked, spec, to_host)
 
 from ._chain import PharmaChain
@@ -67,7 +67,9 @@ def _values_and_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameter
     return result.values, result.matrix
 
 
-_exported_values_and_jacobian = exported(_values_and_jacobian, name="pharma-jacobian")
+_exported_values_and_jacobian = exported(_values_and_jacobian, name="pharma-jacobian", compiler_options=QUICK_COMPILE)
+"""The chain's Jacobian programs, compiled with `snapo_ode.QUICK_COMPILE`: a cold first process
+spends more on their compiles than on their runs (measured side by side: README)."""
 
 
 def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
@@ -82,12 +84,14 @@ def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
                                        what="the chain's sensitivities")
 
 
-def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: bool, mode: str) -> bool:
+def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: bool, mode: str, *,
+                      elsewhere: bool = False) -> bool:
     """Prepare `jacobian_function(chain, with_parameters, mode)`'s program for `inputs` ahead of
-    its call (`snapo_ode.prefetch_checked`: read in the background if on disk, else traced here
-    and compiled in the background); whether it was on disk."""
+    its call (`snapo_ode.prefetch_checked`: read in the background if on disk, else traced here,
+    or with `elsewhere` in a helper process, and compiled in the background); whether it was on
+    disk."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
-    return prefetch_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode)
+    return prefetch_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode, elsewhere=elsewhere)
 
 
 def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mesh=None):

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from snapo_ode import (
-    Jacobian, Result, agreement, bump_steps, bumps_program, call_checked, compare_with_bumps, exported, field,
+    QUICK_COMPILE, Jacobian, Result, agreement, bump_steps, bumps_program, call_checked, compare_with_bumps, exported, field,
     flatten_inputs, prefetch_checked, time_function)
 
 from ._chain import CHAIN_SOLVER, PharmaChain
@@ -132,33 +132,43 @@ def _cqa_shape(inputs: ChainInputs):
     return jnp.zeros(len(CQA_NAMES))
 
 
-def _bumps(bumped_chain: PharmaChain):
-    """The central differences' program, as `compare_with_bumps` builds it from
-    `cqa_function(bumped_chain)` with Richardson steps, exported (keyed by the chain it closes
-    over and those steps), so that a second process does not trace it."""
-    return exported(bumps_program(cqa_function(bumped_chain), richardson=True), name="pharma-bumps",
-                    static=(bumped_chain, "richardson"))
+def _bumped_cqas(bumped_chain: PharmaChain, inputs: ChainInputs, args, steps):
+    """The central differences of `cqa_function(bumped_chain)` at `inputs` with Richardson steps,
+    as `compare_with_bumps` computes them (`snapo_ode.bumps_program`)."""
+    return bumps_program(cqa_function(bumped_chain), richardson=True)(inputs, args, steps)
 
 
-def _call_bumps(adjoint, bumps, program, *args):
+_exported_bumps = exported(_bumped_cqas, name="pharma-bumps", compiler_options=QUICK_COMPILE)
+"""The central differences' program, exported (keyed by the bumped chain and the steps' shape), so
+that a second process does not trace it; defined here, so that a helper process can trace it."""
+
+
+def _call_bumps(adjoint, bumped_chain: PharmaChain, program, *args):
     """How `sensitivity_study` calls its programs: the adjoint as it is (exported already), and
-    for the central differences' program (the only other one), its exported equal `bumps`."""
-    return call_checked(adjoint if program is adjoint else bumps, *args, what="the chain's sensitivities")
+    for the central differences' program (the only other one), `_exported_bumps`."""
+    if program is adjoint:
+        return call_checked(adjoint, *args, what="the chain's sensitivities")
+    return call_checked(_exported_bumps, bumped_chain, *args, what="the chain's sensitivities")
 
 
-def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumps, reference) -> None:
+def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, reference) -> None:
     """Prepare the study's programs before the first runs (`snapo_ode.prefetch_checked`): the
-    adjoint, the bumps (`bumps` or None) and the reference Jacobian (its solver settings or
-    None). A second process reads them in background threads (one after another they took ~2 s
-    of the ~5.5 s a warm `snapo pharma sensitivities` took, on 2 cores); a first one traces each
-    here while those traced before compile in the background. The bumps' steps are built as
+    adjoint, the bumps (of `bumped_chain`, or None) and the reference Jacobian (its solver
+    settings or None). A second process reads them in background threads (one after another
+    they took ~2 s of the ~5.5 s a warm `snapo pharma sensitivities` took, on 2 cores). A first
+    one hands the reference and the bumps to helper processes (`elsewhere`), started first, and
+    traces the adjoint here meanwhile: tracing holds the interpreter lock, and the three traces
+    one after another were 19.5 s of a 35 s cold run. The bumps' steps are built as
     `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
-    prefetch_jacobian(chain, inputs, True, mode)
-    if bumps is not None:
+    warm = reference is not None and prefetch_jacobian(chain.with_solver(reference), inputs, True,
+                                                       other_mode(mode), elsewhere=True)
+    if warm:  # the first to run is read first (the reads share one thread per core)
+        prefetch_jacobian(chain, inputs, True, mode)
+    if bumped_chain is not None:
         steps = jnp.asarray(bump_steps(flatten_inputs(inputs)[0], BUMP_RELATIVE_STEP, 0.0))
-        prefetch_checked(bumps, inputs, (), steps)
-    if reference is not None:
-        prefetch_jacobian(chain.with_solver(reference), inputs, True, other_mode(mode))
+        prefetch_checked(_exported_bumps, bumped_chain, inputs, (), steps, elsewhere=True)
+    if not warm:
+        prefetch_jacobian(chain, inputs, True, mode)
 
 
 def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
@@ -174,14 +184,13 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     scales = input_scales(inputs)
     checks = {}
     bumped_chain = chain.with_solver(BUMP_SOLVER)
-    bumps = _bumps(bumped_chain) if check_bumps else None
-    _prefetch(chain, inputs, mode, bumps, reference)
+    _prefetch(chain, inputs, mode, bumped_chain if check_bumps else None, reference)
     if check_bumps:
         adjoint = jacobian_function(chain, True, mode)
         comparison = compare_with_bumps(
             _cqa_shape, inputs, adjoint_fn=adjoint, bump_fn=cqa_function(bumped_chain),
             relative_step=BUMP_RELATIVE_STEP, step_floor=0.0, richardson=True, scales=scales, zero=1e-12,
-            repeats=repeats, bump_repeats=1, call=functools.partial(_call_bumps, adjoint, bumps))
+            repeats=repeats, bump_repeats=1, call=functools.partial(_call_bumps, adjoint, bumped_chain))
         jac = named_jacobian(chain, inputs, comparison.value, comparison.adjoint, mode)
         seconds, compile_seconds = comparison.adjoint_seconds, comparison.adjoint_compile_seconds
         bumped = named_jacobian(chain, inputs, comparison.value, comparison.bumped, mode)
