@@ -23,6 +23,9 @@ MISMATCH = 3
 """The helper's exit code when its key for the arguments differs from the caller's."""
 UNEXPORTABLE = 4
 """The helper's exit code when the program cannot be exported (the caller then jits it)."""
+TIMEOUT = 900.0
+"""Seconds a caller waits for a helper before it kills it and traces the program itself (a
+gri30 gradient's trace and compile take ~1 minute on 2 cores)."""
 
 NICENESS = 10
 """The helpers' scheduling priority below the caller's (Unix `nice`): the caller's own trace and
@@ -46,7 +49,7 @@ def locate(program) -> tuple[str, str] | None:
     """(module, attribute) where `program` (an `ExportedProgram`) is defined at module level, or
     None: a program made inside a function cannot be imported by a helper."""
     module = sys.modules.get(getattr(program._fn, "__module__", None) or "")
-    if module is None:
+    if module is None or module.__name__ == "__main__":  # a helper's __main__ is not the caller's
         return None
     names = [name for name, value in vars(module).items() if value is program]
     return (module.__name__, names[0]) if names else None
@@ -64,24 +67,45 @@ def start(program, args, path, *, cache_dir: str, on_error, precision) -> subpro
         # read before float64 is on becomes float32 (and the key differs).
         payload = pickle.dumps({"where": where, "args": pickle.dumps(args), "path": str(path), "cache_dir": cache_dir,
                                 "on_error": on_error, "precision": precision})
-    except (pickle.PicklingError, TypeError, AttributeError):
+    except Exception:  # noqa: BLE001 - whatever does not pickle is traced by the caller
         return None
-    process = subprocess.Popen([sys.executable, "-m", "snapo_ode._export_helper"], stdin=subprocess.PIPE)
+    # Its stdout is dropped (a command's may be machine-read); its stderr shows why it failed.
+    # On a GPU it must not take the memory that JAX preallocates for the caller.
+    environment = dict(os.environ, XLA_PYTHON_CLIENT_PREALLOCATE="false")
+    try:
+        process = subprocess.Popen([sys.executable, "-m", "snapo_ode._export_helper"], stdin=subprocess.PIPE,
+                                   stdout=subprocess.DEVNULL, env=environment)
+    except OSError:
+        return None
     _RUNNING.append(process)
-    process.stdin.write(payload)
-    process.stdin.close()
+    try:
+        process.stdin.write(payload)
+        process.stdin.close()
+    except OSError:  # it died before reading: the caller traces
+        process.kill()
+        return None
     return process
+
+
+def wait(process: subprocess.Popen, timeout: float | None = None) -> int:
+    """The helper's exit code once it is done; a helper still running after `timeout` [s]
+    (default `TIMEOUT`) is killed (a negative code)."""
+    try:
+        return process.wait(TIMEOUT if timeout is None else timeout)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        return process.wait()
 
 
 def main() -> int:
     """The helper: read the payload from stdin, export and compile; the exit code says how it went."""
+    if hasattr(os, "nice"):  # first: its imports too take what the caller leaves
+        os.nice(NICENESS)
     import equinox._errors as equinox_errors
     import jax
 
     from ._config import configure
 
-    if hasattr(os, "nice"):
-        os.nice(NICENESS)
     payload = pickle.load(sys.stdin.buffer)
     configure(payload["cache_dir"])
     module, attribute = payload["where"]

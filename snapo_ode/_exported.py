@@ -37,6 +37,7 @@ import functools
 import hashlib
 import os
 import pathlib
+import threading
 import warnings
 from collections.abc import Callable
 
@@ -45,6 +46,7 @@ import equinox._errors as equinox_errors
 import jax
 import numpy as np
 
+from . import _export_helper
 from ._export_keys import _ARRAYS, Unkeyable, _packages, describe, entry_path, environment
 from ._io import atomic_write_bytes
 
@@ -177,8 +179,15 @@ class ExportedProgram:
         deserialised = _export(entry, flat, leaves, self._name)
         if deserialised is None:
             return None
-        self._jit(deserialised.call).lower(*leaves).compile()
+        self._compiled(deserialised, leaves)
         return True
+
+    def _compiled(self, deserialised, leaves) -> Callable:
+        """The deserialised program jitted and compiled for `leaves` (an executable the
+        persistent cache holds is read from it)."""
+        jitted = self._jit(deserialised.call)
+        jitted.lower(*leaves).compile()
+        return jitted
 
     def prefetch(self, *args, elsewhere: bool = False) -> bool:
         """Prepare the program for `args` ahead of its call, so that the call finds it compiled:
@@ -203,8 +212,6 @@ class ExportedProgram:
         precision = jax.config.jax_default_matmul_precision
         helper = None
         if not on_disk and elsewhere:
-            from . import _export_helper
-
             helper = _export_helper.start(self, args, path, cache_dir=jax.config.jax_compilation_cache_dir,
                                           on_error=getattr(equinox_errors, "EQX_ON_ERROR", None),
                                           precision=precision)
@@ -219,20 +226,39 @@ class ExportedProgram:
             # in-memory caches key the executable by the arguments' placement and the trace
             # context: lowered for the very leaves of the call, with the caller's matmul
             # precision (thread-local).
-            if helper is not None and helper.wait() != 0:
-                warnings.warn(f"snapo: the helper process that traces {self._name} exited with "
-                              f"{helper.returncode}; it is traced by the call instead", stacklevel=2)
-                return None
+            if helper is not None:
+                code = _export_helper.wait(helper)
+                if code == _export_helper.UNEXPORTABLE:  # the helper warned; the call jits it
+                    return self._jit(flat)
+                if code != 0:
+                    warnings.warn(f"snapo: the helper process that traces {self._name} exited with {code}; "
+                                  "it is traced by the call instead", stacklevel=1)
+                    return None
             deserialised = program if program is not None else _read(path)
             if deserialised is None:
                 return None
             with jax.default_matmul_precision(precision):
-                jitted = self._jit(deserialised.call)
-                jitted.lower(*leaves).compile()
-            return jitted
+                return self._compiled(deserialised, leaves)
 
-        _PREFETCHED[path] = _prefetcher().submit(prepare)
+        # A helper is waited for in a thread of its own: waits in the pool (one thread per
+        # core) would hold back the compiles of the programs traced here.
+        _PREFETCHED[path] = _in_daemon_thread(prepare) if helper is not None else _prefetcher().submit(prepare)
         return on_disk
+
+
+def _in_daemon_thread(fn: Callable) -> concurrent.futures.Future:
+    """`fn()` in a daemon thread: an exit does not wait for it (the helper it waits for is
+    killed at exit, `snapo_ode._export_helper`)."""
+    future: concurrent.futures.Future = concurrent.futures.Future()
+
+    def run():
+        try:
+            future.set_result(fn())
+        except BaseException as error:  # noqa: BLE001 - handed to the caller through the future
+            future.set_exception(error)
+
+    threading.Thread(target=run, name="snapo-helper-wait", daemon=True).start()
+    return future
 
 
 @functools.cache
@@ -251,7 +277,8 @@ def exported(fn: Callable, *, name: str, static=None, compiler_options: dict | N
     - `static`: what `fn` closes over and its program depends on (a model, settings): part of
       the key, array values included. Arguments need not be listed: they are keyed by structure.
     - `compiler_options`: XLA options its executable is compiled with (`jax.jit`'s; they key the
-      executable in the compilation cache, not the entry), e.g. `QUICK_COMPILE`.
+      executable in the compilation cache, not the entry), e.g. `QUICK_COMPILE`. Without a
+      cache directory or for `Unkeyable` arguments (`equinox.filter_jit`), XLA's defaults.
 
     **Returns:** an `ExportedProgram`, a function of the same arguments (with `prefetch`).
     Without a compilation cache directory, or with an argument that cannot be keyed

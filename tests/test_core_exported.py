@@ -226,7 +226,13 @@ import json, sys, warnings
 import jax, jax.numpy as jnp, numpy as np
 import snapo_ode
 
+import logging
 snapo_ode.configure()
+messages = []  # JAX logs each persistent-cache hit with the program's name: an exported one is jit(call)
+handler = logging.Handler(logging.DEBUG)
+handler.emit = lambda record: messages.append(record.getMessage())
+logging.getLogger("jax._src.compiler").setLevel(logging.DEBUG)
+logging.getLogger("jax._src.compiler").addHandler(handler)
 sys.path.insert(0, sys.argv[1])  # the caller's path only: a helper finds the module only on PYTHONPATH
 import helper_decay as m
 
@@ -237,7 +243,7 @@ with warnings.catch_warnings(record=True) as caught:
     on_disk = snapo_ode.prefetch_checked(program, model, y0, elsewhere=True)
     value, gradient = snapo_ode.call_checked(program, model, y0)
 plain = jax.jit(m.value_and_gradient)(model, y0)
-print(json.dumps({"traces_here": len(m.traces) - 1, "on_disk": on_disk, "value": float(value),
+print(json.dumps({"traces_here": len(m.traces) - 1, "on_disk": on_disk, "cache_reads": sum("cache hit for 'jit_call'" in m for m in messages), "value": float(value),
                   "gradient": np.asarray(gradient).tolist(), "plain": [float(plain[0]), np.asarray(plain[1]).tolist()],
                   "warnings": [str(w.message) for w in caught if "snapo" in str(w.message)]}))
 """
@@ -258,8 +264,10 @@ def test_a_program_prefetched_elsewhere_is_traced_by_a_helper_process_and_gives_
     (tmp_path / "module").mkdir()
     (tmp_path / "module" / "helper_decay.py").write_text(HELPER_MODULE)
     first = run_elsewhere(tmp_path / "cache", tmp_path / "module")
-    # Traced, written and compiled by the helper: the caller read the entry and ran it.
+    # Traced, written and compiled by the helper: the caller read the entry, and its executable
+    # from the compilation cache (a fresh one: nothing else could be read there), and ran it.
     assert first["traces_here"] == 0 and not first["on_disk"] and first["warnings"] == []
+    assert first["cache_reads"] == 1
     assert len(list((tmp_path / "cache" / EXPORTED_DIRECTORY).glob("test-helper-decay-*"))) == 1
     assert first["value"] == pytest.approx(first["plain"][0], rel=1e-12, abs=0)
     assert first["gradient"] == pytest.approx(first["plain"][1], rel=1e-12, abs=1e-300)
@@ -269,6 +277,7 @@ def test_a_program_prefetched_elsewhere_is_traced_by_a_helper_process_and_gives_
     # A program no helper can import (made inside a function) is traced by the caller, silently.
     local = run_elsewhere(tmp_path / "cache-local", tmp_path / "module", which="local")
     assert local["traces_here"] == 1 and local["warnings"] == [] and local["value"] == first["value"]
+    assert local["cache_reads"] == 0
 
 
 def test_a_failed_helper_process_leaves_the_trace_to_the_call_with_a_warning(tmp_path):

@@ -162,7 +162,7 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, 
     `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
     warm = reference is not None and prefetch_jacobian(chain.with_solver(reference), inputs, True,
                                                        other_mode(mode), elsewhere=True)
-    if warm:  # the first to run is read first (the reads share one thread per core)
+    if warm:  # the adjoint, which runs first, is read before the bumps (a thread per core reads)
         prefetch_jacobian(chain, inputs, True, mode)
     if bumped_chain is not None:
         steps = jnp.asarray(bump_steps(flatten_inputs(inputs)[0], BUMP_RELATIVE_STEP, 0.0))
