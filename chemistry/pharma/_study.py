@@ -160,15 +160,12 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, 
     traces the adjoint here meanwhile: tracing holds the interpreter lock, and the three traces
     one after another were 19.5 s of a 35 s cold run. The bumps' steps are built as
     `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
-    warm = reference is not None and prefetch_jacobian(chain.with_solver(reference), inputs, True,
-                                                       other_mode(mode), elsewhere=True)
-    if warm:  # the adjoint, which runs first, is read before the bumps (a thread per core reads)
-        prefetch_jacobian(chain, inputs, True, mode)
+    if reference is not None:
+        prefetch_jacobian(chain.with_solver(reference), inputs, True, other_mode(mode), elsewhere=True)
     if bumped_chain is not None:
         steps = jnp.asarray(bump_steps(flatten_inputs(inputs)[0], BUMP_RELATIVE_STEP, 0.0))
         prefetch_checked(_exported_bumps, bumped_chain, inputs, (), steps, elsewhere=True)
-    if not warm:
-        prefetch_jacobian(chain, inputs, True, mode)
+    prefetch_jacobian(chain, inputs, True, mode)
 
 
 def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
