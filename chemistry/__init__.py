@@ -18,7 +18,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                    "initial_concentrations", "solve_ignition"),
     "._mechanism": ("Mechanism",),
     "._rate_laws": ("RateParameters",),
-    "._reactor": ("REACTOR_EFFECTS", "REACTOR_SOLVER", "Reactor", "Trajectory", "simulate"),
+    "._reactor": ("REACTOR_EFFECTS", "REACTOR_BDF_SOLVER", "REACTOR_SOLVER", "Reactor", "Trajectory", "simulate"),
     "._sensitivities": ("SensitivityComparison", "cantera_sensitivities", "compare_sensitivities",
                         "final_temperature", "temperature_at", "temperature_sensitivities"),
     "._thermo": ("SpeciesThermo",),

@@ -1,14 +1,16 @@
 """`snapo bench kinetics`: constant-volume adiabatic ignition at equal tolerance, from the start to
 the case's sensitivity time (late in the induction: h2o2 0.27 ms, gri30 1.0 ms, where
-`snapo kinetics check` compares the sensitivities with Cantera's): our forward solve, our
-gradient of T there with respect to every reaction's A-factor (one reverse pass), Cantera's
-integration and Cantera's integration with forward sensitivities to every reaction switched on.
+`snapo kinetics check` compares the sensitivities with Cantera's): our forward solves (Rodas5,
+the reactors' default, and the BDF of `REACTOR_BDF_SOLVER`), our gradient of T there with
+respect to every reaction's A-factor (one reverse pass, through each), Cantera's integration
+and Cantera's integration with forward sensitivities to every reaction switched on; and each
+solver's error in T against a converged reference (Rodas5 at rtol 1e-13), so that a speed is
+read with the accuracy it bought.
 
-Our solver here: `snapo_ode.Rodas4` (Rosenbrock: one Jacobian, from the mechanism's closed-form
-concentration Jacobian, and one LU a step) at the same rtol 1e-10 / atol 1e-14, with a checkpoint
-at every step for the reverse pass. Kvaerno5 (ESDIRK, a Newton iteration per stage) was 4x slower
-forward and its reverse pass failed on gri30 (the root finder's implicit derivative on a rejected
-step, after ~20 minutes); docs/chemistry.md has those figures."""
+Rodas5 (Rosenbrock: one closed-form Jacobian and one LU a step) at the same rtol 1e-10 / atol
+1e-14, with a checkpoint at every step for the reverse pass. Kvaerno5 (ESDIRK, a Newton iteration
+per stage) was 4x slower forward and its reverse pass failed on gri30 (the root finder's implicit
+derivative on a rejected step, after ~20 minutes); docs/chemistry.md has those figures."""
 
 import pathlib
 import statistics
@@ -23,7 +25,7 @@ from snapo_ode import Column, call_checked, format_table, time_function, write_t
 from ._batch_bench import benchmark_batch, benchmark_scaling, device
 from ._ignition import IGNITION_CASES, initial_concentrations
 from ._mechanism import Mechanism
-from ._reactor import REACTOR_SOLVER
+from ._reactor import REACTOR_BDF_SOLVER, REACTOR_SOLVER
 from ._sensitivities import final_temperature
 
 RTOL, ATOL = 1e-10, 1e-14
@@ -32,6 +34,9 @@ SENSITIVITY_TOLERANCE = 1e-6
 """Cantera's sensitivity rtol and atol: where its h2o2 sensitivities agree with its own bumps."""
 MAX_STEPS = 4000
 """Per solve (gri30 takes ~1,200 at these tolerances); also the reverse pass's checkpoints."""
+REFERENCE_RTOL = 1e-13
+"""The converged reference's rtol (Rodas5, atol = rtol x 1e-4): h2o2's T moves 5e-11 relative from
+rtol 1e-12 to 1e-13."""
 CANTERA_SENSITIVITY_REPEATS = {"h2o2": 3, "gri30": 1}  # gri30 with 325 sensitivities: seconds a run
 
 
@@ -79,8 +84,19 @@ def benchmark_mechanism(name: str, repeats: int, batch: int | None = None, scali
     def checked(fn):
         return lambda x: call_checked(fn, x, what=f"the {name} ignition")
 
+    def bdf_objective(log_multiplier):
+        return final_temperature(log_multiplier, mechanism, concentrations, case, end_time, bdf_settings)
+
     forward, temperature = time_function(checked(eqx.filter_jit(objective)), zero, repeats=repeats)
-    gradient, _ = time_function(checked(eqx.filter_jit(jax.value_and_grad(objective))), zero, repeats=repeats)
+    bdf_settings = REACTOR_BDF_SOLVER.replace(rtol=RTOL, atol=ATOL, max_steps=MAX_STEPS)
+    forward_bdf, bdf_temperature = time_function(checked(eqx.filter_jit(bdf_objective)), zero, repeats=repeats)
+    gradient_bdf, (_, bdf_gradient) = time_function(checked(eqx.filter_jit(jax.value_and_grad(bdf_objective))), zero,
+                                                    repeats=repeats)
+    reference_settings = REACTOR_SOLVER.replace(rtol=REFERENCE_RTOL, atol=REFERENCE_RTOL * 1e-4, max_steps=50_000)
+    reference = float(call_checked(eqx.filter_jit(final_temperature), zero, mechanism, concentrations, case, end_time,
+                                   reference_settings, what=f"the {name} reference"))
+    gradient, (_, rodas5_gradient) = time_function(checked(eqx.filter_jit(jax.value_and_grad(objective))), zero,
+                                                   repeats=repeats)
     cantera_forward, cantera_temperature = cantera_seconds(path, case, end_time, False, repeats)
     cantera_sensitivity, _ = cantera_seconds(path, case, end_time, True,
                                               CANTERA_SENSITIVITY_REPEATS[name])
@@ -94,6 +110,18 @@ def benchmark_mechanism(name: str, repeats: int, batch: int | None = None, scali
         "cantera_sensitivity_runs": CANTERA_SENSITIVITY_REPEATS[name],
         "gradient_speedup_vs_cantera_sensitivities": cantera_sensitivity / gradient.median_seconds,
         "final_temperature_K": float(temperature), "cantera_final_temperature_K": cantera_temperature,
+        "forward_bdf_s": forward_bdf.median_seconds, "forward_bdf_compile_s": forward_bdf.compile_seconds,
+        "bdf_final_temperature_K": float(bdf_temperature), "reference_final_temperature_K": reference,
+        "reference_rtol": REFERENCE_RTOL,
+        "gradient_bdf_s": gradient_bdf.median_seconds, "gradient_bdf_compile_s": gradient_bdf.compile_seconds,
+        "gradient_bdf_speedup_vs_cantera_sensitivities": cantera_sensitivity / gradient_bdf.median_seconds,
+        "gradient_bdf_vs_rodas5_max_relative_difference": float(
+            jnp.max(jnp.abs(bdf_gradient - rodas5_gradient)) / jnp.max(jnp.abs(rodas5_gradient))),
+        "forward_slowdown_vs_cantera": forward.median_seconds / cantera_forward,
+        "forward_bdf_slowdown_vs_cantera": forward_bdf.median_seconds / cantera_forward,
+        **{f"{who}_temperature_rel_error": abs(value - reference) / reference
+           for who, value in (("rodas5", float(temperature)), ("bdf", float(bdf_temperature)),
+                              ("cantera", cantera_temperature))},
     }
     if batch is not None:
         row.update(benchmark_batch(name, path, mechanism, case, batch, end_time, settings, repeats))
@@ -102,11 +130,23 @@ def benchmark_mechanism(name: str, repeats: int, batch: int | None = None, scali
 
 COLUMNS = (
     Column("mechanism", "mechanism"), Column("parameters", "parameters"),
-    Column("to ms", "end_time_s", lambda v: f"{1e3 * v:g}"), Column("our forward s", "forward_s", ".3f"),
-    Column("our gradient s (all A, one reverse pass)", "gradient_s", ".3f"), Column("Cantera s", "cantera_forward_s", ".3f"),
+    Column("to ms", "end_time_s", lambda v: f"{1e3 * v:g}"), Column("our forward s (Rodas5)", "forward_s", ".4f"),
+    Column("our forward s (BDF)", "forward_bdf_s", ".4f"), Column("Cantera s", "cantera_forward_s", ".4f"),
+    Column("Rodas5 / Cantera", "forward_slowdown_vs_cantera", lambda v: f"{v:.1f}x"),
+    Column("BDF / Cantera", "forward_bdf_slowdown_vs_cantera", lambda v: f"{v:.1f}x"),
+    Column("T error Rodas5", "rodas5_temperature_rel_error", ".1e"), Column("T error BDF", "bdf_temperature_rel_error", ".1e"),
+    Column("T error Cantera", "cantera_temperature_rel_error", ".1e"),
+    Column("our gradient s (Rodas5; all A, one reverse pass)", "gradient_s", ".3f"),
+    Column("our gradient s (BDF)", "gradient_bdf_s", ".4f"),
     Column("Cantera + forward sensitivities s", "cantera_sensitivities_s", ".2f"),
-    Column("gradient vs Cantera's sensitivities", "gradient_speedup_vs_cantera_sensitivities", lambda v: f"{v:.1f}x"),
-    Column("compile s (forward)", "forward_compile_s", ".0f"), Column("compile s (gradient)", "gradient_compile_s", ".0f"),
+    Column("Rodas5 gradient vs Cantera's sensitivities", "gradient_speedup_vs_cantera_sensitivities",
+           lambda v: f"{v:.1f}x"),
+    Column("BDF gradient vs Cantera's sensitivities", "gradient_bdf_speedup_vs_cantera_sensitivities",
+           lambda v: f"{v:.1f}x"),
+    Column("BDF gradient vs Rodas5's", "gradient_bdf_vs_rodas5_max_relative_difference", ".1e"),
+    Column("compile s (forward)", "forward_compile_s", ".0f"), Column("compile s (BDF)", "forward_bdf_compile_s", ".0f"),
+    Column("compile s (gradient)", "gradient_compile_s", ".0f"),
+    Column("compile s (BDF gradient)", "gradient_bdf_compile_s", ".0f"),
 )
 
 

@@ -153,7 +153,12 @@ def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: boo
             "diffrax.ForwardMode() for forward-mode Jacobians with few inputs."
         )
     solution = diffrax.diffeqsolve(terms, solver, t0, t1, dt0, y0, args, throw=False, **kwargs)
-    failed = solution.result != diffrax.RESULTS.successful
-    which = jnp.where(solution.result == diffrax.RESULTS.max_steps_reached, 0, 1)
-    ys = eqx.branched_error_if(solution.ys, failed, which, _FAILURE_MESSAGES)
+    ys = checked_ys(solution.ys, solution.result != diffrax.RESULTS.successful,
+                    solution.result == diffrax.RESULTS.max_steps_reached)
     return eqx.tree_at(lambda s: s.ys, solution, ys)
+
+
+def checked_ys(ys, failed, max_steps_reached):
+    """`ys` behind an `equinox.error_if` that raises with advice where `failed` (a traced bool):
+    the max_steps advice where `max_steps_reached`, else the one for a collapsed step."""
+    return eqx.branched_error_if(ys, failed, jnp.where(max_steps_reached, 0, 1), _FAILURE_MESSAGES)

@@ -25,7 +25,8 @@ from chemistry import (
     temperature_at,
     temperature_sensitivities_batch,
 )
-from chemistry._ignition import trajectory_and_delay
+from chemistry._bench import cantera_seconds
+from chemistry._ignition import IGNITION_CASES, trajectory_and_delay
 from chemistry._reactor import Reactor, simulate
 from chemistry._sensitivities import with_multipliers
 from snapo_ode import InputError, SolverFailed
@@ -183,7 +184,17 @@ def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
     # mass fractions (ours on amounts over the initial total): its T here is 2.7e-6 off its
     # converged value (rtol 1e-12, atol 1e-20: 1008.03118 K), ours 1.5e-7.
     assert abs(row["final_temperature_K"] / row["cantera_final_temperature_K"] - 1) < 1e-5
-    assert all(row[key] > 0 for key in ("forward_s", "gradient_s", "cantera_forward_s", "cantera_sensitivities_s"))
+    assert all(row[key] > 0 for key in ("forward_s", "gradient_s", "cantera_forward_s", "cantera_sensitivities_s",
+                                        "forward_bdf_s"))
+    # The converged reference (our Rodas5 at rtol 1e-13) against Cantera's at rtol 1e-12 / atol 1e-20,
+    # and each solver's error against it: the BDF within its tolerances' reach (atol-dominated).
+    _, cantera_converged = cantera_seconds(Path(cantera.__file__).parent / "data" / "h2o2.yaml", IGNITION_CASES["h2o2"],
+                                           row["end_time_s"], False, 1, rtol=1e-12, atol=1e-20)
+    assert abs(row["reference_final_temperature_K"] / cantera_converged - 1) < 1e-9
+    assert row["rodas5_temperature_rel_error"] < 1e-7 and row["bdf_temperature_rel_error"] < 2e-6
+    assert row["cantera_temperature_rel_error"] == pytest.approx(
+        abs(row["cantera_final_temperature_K"] / row["reference_final_temperature_K"] - 1))
+    assert row["forward_bdf_slowdown_vs_cantera"] == pytest.approx(row["forward_bdf_s"] / row["cantera_forward_s"])
     assert (tmp_path / "bench_kinetics.csv").read_text().count("\n") == 2
     assert row["batch_max_relative_difference_vs_cantera"] < 1e-5  # equal tolerances, not equal errors
     assert row["batch_max_relative_difference_vs_single"] < 1e-10 and row["batch_single_reactors"] == 3
