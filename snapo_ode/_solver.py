@@ -179,6 +179,11 @@ class SolverSettings(eqx.Module):
             raise InputError("solver = 'bdf' with differentiation = 'backsolve': the BDF solver differentiates "
                              "its own steps; use differentiation = 'reverse' or 'forward'.")
         ts = jnp.asarray(_output_times("bdf", saveat, t1), float)
+        if not any(isinstance(x, jax.core.Tracer) for x in (t0, t1, ts)) and not (
+                float(t0) < float(t1) and float(t0) <= float(jnp.min(ts)) and float(jnp.max(ts)) <= float(t1)):
+            raise InputError(f"solver = 'bdf' integrates forward from t0 = {float(t0):g} to t1 = {float(t1):g} "
+                             f"(t0 < t1) and saves within [t0, t1]; saveat.ts spans {float(jnp.min(ts)):g} to "
+                             f"{float(jnp.max(ts)):g}.")
         y0_flat, unravel = ravel_pytree(y0)
 
         def rate(t, y, args):
@@ -189,7 +194,7 @@ class SolverSettings(eqx.Module):
 
         ys, stats, status = bdf_solve(rate, jacobian_flat, jnp.asarray(t0, float), jnp.asarray(t1, float), y0_flat,
                                       args, ts, rtol=self.rtol, atol=self.atol, max_steps=self.max_steps,
-                                      reverse=self.differentiation == "reverse")
+                                      reverse=self.differentiation == "reverse", checkpoints=self.checkpoints)
         ys = checked_ys(ys, status != 0, status == 1)
         return _solution(t0, t1, ts, jax.vmap(unravel)(ys), stats._asdict())
 

@@ -95,6 +95,8 @@ def test_bdf_refuses_backsolve_and_dense_output_before_any_compile():
         BDF.solve(robertson, 0.0, 1.0, jnp.array([1.0, 0.0, 0.0]), 0.0, saveat=diffrax.SaveAt(t1=True, dense=True))
     with pytest.raises(InputError, match="not a Diffrax method"):
         BDF.method()
+    with pytest.raises(InputError, match=r"t0 < t1.*spans 0 to 50"):
+        solve_robertson(0.0, times=np.array([0.0, 50.0, 40.0]))
 
 
 def test_bdf_that_runs_out_of_steps_raises_with_advice_and_reports_its_counts():
