@@ -7,6 +7,7 @@ d ln T / d ln A is ~0 and both codes report noise) and match Cantera; where our 
 meets its limit near a fast front it stops with exit code 3 and writes nothing."""
 
 import dataclasses
+import functools
 import json
 import math
 
@@ -54,11 +55,14 @@ def test_h2o2_sensitivities_from_hot_starts_are_finite_and_match_cantera(tmp_pat
     assert np.all(np.isfinite([row["ours"] for row in sensitivities["top"]]))
 
 
-def test_gri30_gradients_stay_finite_where_trial_steps_overshoot_and_match_bumps():
+@pytest.mark.parametrize("solver", ["rodas5", "bdf"])
+def test_gri30_gradients_stay_finite_where_trial_steps_overshoot_and_match_bumps(solver):
     # Reactors 0 and 51 of `snapo bench kinetics --batch 256` (1450.1 K / 95.1 kPa and 1457.1 K /
     # 91.9 kPa, late in the induction at 1 ms): every d ln T / d ln A of theirs was NaN, on the
     # CPU and on a GPU, single or batched, since rejected trial steps reached 14,500-72,500 K,
     # where the rates overflow and the reverse pass met 0 * inf. Such states now reject the step.
+    # The BDF meets them in its Newton iteration (a non-finite rate fails it); its replay, vmapped,
+    # runs on past a member's last step at a finite no-op (see snapo_ode._bdf._replay).
     from chemistry import IGNITION_CASES, REACTOR_SOLVER, Mechanism, temperature_sensitivities_batch
     from chemistry._batch_bench import batch_conditions
     from chemistry._sensitivities import temperature_at
@@ -66,7 +70,7 @@ def test_gri30_gradients_stay_finite_where_trial_steps_overshoot_and_match_bumps
     mechanism = Mechanism.from_yaml(f"{cantera.__file__.rsplit('/', 1)[0]}/data/gri30.yaml")
     case = IGNITION_CASES["gri30"]
     sample = jax.tree.map(lambda x: x[np.array([0, 51])], batch_conditions(mechanism, case, 256))
-    settings = REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14, max_steps=4000)
+    settings = REACTOR_SOLVER.replace(solver=solver, rtol=1e-10, atol=1e-14, max_steps=4000)
     sensitivities, _ = temperature_sensitivities_batch(mechanism, sample, case.sensitivity_time, settings=settings)
     sensitivities = np.asarray(sensitivities)
     assert np.all(np.isfinite(sensitivities)) and np.abs(sensitivities).max() > 1e-3
@@ -91,25 +95,30 @@ ROBERTSON_RATES = np.array([0.04, 1e4, 3e7])
 ROBERTSON_END = 1e7  # [s]: the Jacobian's stiffness ratio there is ~5e10
 
 
-def _robertson_end(rates):
+def _robertson_end(rates, solver="rodas4"):
+    if solver == "bdf":  # snapo_ode's BDF, through SolverSettings (it is not a Diffrax solver)
+        settings = snapo_ode.SolverSettings(solver="bdf", rtol=1e-10, atol=1e-16, max_steps=20_000)
+        return settings.solve(_robertson, 0.0, ROBERTSON_END, jnp.array([1.0, 0.0, 0.0]), rates).ys[-1]
     solution = snapo_ode.diffeqsolve_checked(
         diffrax.ODETerm(_robertson), snapo_ode.Rodas4(), 0.0, ROBERTSON_END, None, jnp.array([1.0, 0.0, 0.0]),
         rates, stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-16), max_steps=20_000)
     return solution.ys[-1]
 
 
-def test_a_stiffness_ratio_above_1e8_solves_and_differentiates():
+@pytest.mark.parametrize("solver", ["rodas4", "bdf"])
+def test_a_stiffness_ratio_above_1e8_solves_and_differentiates(solver):
     from scipy.integrate import solve_ivp
 
-    end = np.asarray(jax.jit(_robertson_end)(jnp.asarray(ROBERTSON_RATES)))
+    robertson_end = functools.partial(_robertson_end, solver=solver)
+    end = np.asarray(jax.jit(robertson_end)(jnp.asarray(ROBERTSON_RATES)))
     jacobian = np.asarray(jax.jacfwd(lambda y: _robertson(0.0, y, jnp.asarray(ROBERTSON_RATES)))(jnp.asarray(end)))
     eigenvalues = np.sort(np.abs(np.linalg.eigvals(jacobian)))
     assert eigenvalues[2] / eigenvalues[1] > 1e8  # the smallest is zero: mass is conserved
     reference = solve_ivp(lambda t, y: np.asarray(_robertson(t, y, ROBERTSON_RATES)), (0.0, ROBERTSON_END),
                           [1.0, 0.0, 0.0], method="Radau", rtol=1e-12, atol=1e-20).y[:, -1]
     np.testing.assert_allclose(end, reference, rtol=1e-6, atol=1e-14)
-    adjoint = np.asarray(jax.jit(jax.jacrev(_robertson_end))(jnp.asarray(ROBERTSON_RATES)))
-    bumps = snapo_ode.central_differences(jax.jit(_robertson_end), jnp.asarray(ROBERTSON_RATES), step_floor=0.0,
+    adjoint = np.asarray(jax.jit(jax.jacrev(robertson_end))(jnp.asarray(ROBERTSON_RATES)))
+    bumps = snapo_ode.central_differences(jax.jit(robertson_end), jnp.asarray(ROBERTSON_RATES), step_floor=0.0,
                                           relative_step=1e-5)
     assert np.all(np.isfinite(adjoint))
     assert snapo_ode.max_relative_difference(adjoint, bumps) < 1e-5
@@ -181,6 +190,18 @@ def test_a_step_size_collapse_raises_with_advice_never_a_nan(solver):
         return snapo_ode.diffeqsolve_checked(
             diffrax.ODETerm(lambda t, y, args: y**2), solver, 0.0, 2.0, None, y0, None,
             stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-10, dtmin=1e-12), max_steps=100_000).ys[-1]
+
+    with pytest.raises(snapo_ode.SolverFailed, match="step size collapsed"):
+        snapo_ode.call_checked(jax.jit(blow_up), jnp.array(1.0), what="the blow-up")
+    with pytest.raises(eqx.EquinoxRuntimeError):
+        eqx.filter_jit(blow_up)(jnp.array(1.0)).block_until_ready()
+
+
+def test_a_bdf_step_size_collapse_raises_with_advice_never_a_nan():
+    settings = snapo_ode.SolverSettings(solver="bdf", rtol=1e-8, atol=1e-10, max_steps=100_000)
+
+    def blow_up(y0):
+        return settings.solve(lambda t, y, args: y**2, 0.0, 2.0, y0).ys[-1]
 
     with pytest.raises(snapo_ode.SolverFailed, match="step size collapsed"):
         snapo_ode.call_checked(jax.jit(blow_up), jnp.array(1.0), what="the blow-up")

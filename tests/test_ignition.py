@@ -46,20 +46,24 @@ def test_no_ignition_before_the_last_time_raises_with_advice():
         solve_ignition(Mechanism.from_yaml(path), initial_concentrations(path, case), case, early)
 
 
-# gri30's gradient compiles for ~50 s on CI's 2 cores: under `make test-slow`; h2o2 runs the same code.
-@pytest.fixture(scope="module", params=["h2o2", pytest.param("gri30", marks=pytest.mark.slow)])
+# gri30's Rodas5 gradient compiles for ~50 s on CI's 2 cores: under `make test-slow`; h2o2 runs the
+# same code. The BDF's (`REACTOR_BDF_SOLVER`, one reverse pass through its replay) compiles in ~11 s.
+@pytest.fixture(scope="module", params=["h2o2", "h2o2-bdf", pytest.param("gri30", marks=pytest.mark.slow),
+                                        "gri30-bdf"])
 def sensitivities(request):
-    name = request.param
+    name, _, solver = request.param.partition("-")
+    # The BDF at tighter tolerances: central bumps of an adaptive solve cross its step decisions, and
+    # at rtol 1e-10 / atol 1e-14 (T within 6e-7 of converged) that noise reached 1.2e-5 relative.
+    settings = BEFORE_IGNITION.replace(solver=solver, rtol=1e-12, atol=1e-16) if solver else BEFORE_IGNITION
     path, case = CANTERA_DATA / f"{name}.yaml", IGNITION_CASES[name]
     mechanism = Mechanism.from_yaml(path)
     concentrations = jnp.asarray(initial_concentrations(path, case))
-    ours, temperature = temperature_sensitivities(mechanism, concentrations, case, case.sensitivity_time,
-                                                  BEFORE_IGNITION)
-    return name, mechanism, concentrations, case, np.asarray(ours), float(temperature)
+    ours, temperature = temperature_sensitivities(mechanism, concentrations, case, case.sensitivity_time, settings)
+    return name, mechanism, concentrations, case, np.asarray(ours), float(temperature), settings
 
 
 def test_ten_largest_temperature_sensitivities_match_cantera_in_value_and_rank(sensitivities):
-    name, _, _, case, ours, temperature = sensitivities
+    name, _, _, case, ours, temperature, _ = sensitivities
     reference, reference_temperature = cantera_sensitivities(CANTERA_DATA / f"{name}.yaml", case,
                                                              case.sensitivity_time)
     assert abs(temperature / reference_temperature - 1) < 1e-6
@@ -70,9 +74,9 @@ def test_ten_largest_temperature_sensitivities_match_cantera_in_value_and_rank(s
 
 
 def test_reverse_pass_matches_central_bumps_of_our_own_solve(sensitivities):
-    _, mechanism, concentrations, case, ours, temperature = sensitivities
+    _, mechanism, concentrations, case, ours, temperature, settings = sensitivities
     solve = eqx.filter_jit(lambda log_multiplier: final_temperature(
-        log_multiplier, mechanism, concentrations, case, case.sensitivity_time, BEFORE_IGNITION))
+        log_multiplier, mechanism, concentrations, case, case.sensitivity_time, settings))
     step, zero = 1e-5, jnp.zeros(mechanism.n_reactions)
     for i in np.argsort(-np.abs(ours))[[0, 1, 4, 9]]:
         bump = zero.at[i].set(step)
