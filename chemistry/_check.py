@@ -13,7 +13,7 @@ from snapo_ode import InputError, Result, SolverFailed, call_checked, check_coun
 from ._crosscheck import compare_rates
 from ._ignition import IGNITION_CASES, IgnitionCase, cantera_ignition, initial_concentrations, solve_ignition
 from ._mechanism import Mechanism
-from ._reactor import REACTOR_SOLVER
+from ._reactor import REACTOR_BDF_SOLVER
 from ._sensitivities import cantera_sensitivities, compare_sensitivities, temperature_sensitivities
 from ._sources import find_file
 from ._units import ONE_ATM
@@ -21,10 +21,12 @@ from ._units import ONE_ATM
 GAS_TEMPERATURES = (300.0, 2500.0)
 CONDENSED_TEMPERATURES = (280.0, 400.0)
 """Random-state temperature ranges [K]: a liquid mechanism's thermo is fitted near ambient."""
-_SENSITIVITY_SETTINGS = REACTOR_SOLVER.replace(rtol=1e-10, atol=1e-14, unroll_stages=False)
-"""The check's one reverse pass: the Rosenbrock stages in a loop, since here the trace and the
-compile are the wait, not the run (measured: h2o2's gradient traced 7.0 s and compiled 10.6 s
-in a loop, 11.6 s and 16.2 s unrolled; gri30's 10.6 s and 15.3 s against 16.4 s and 18.6 s)."""
+_SENSITIVITY_SETTINGS = REACTOR_BDF_SOLVER.replace(rtol=1e-10, atol=1e-14)
+"""The check's one reverse pass, through the BDF (`REACTOR_BDF_SOLVER`): here the trace and the
+compile are the wait, and the BDF's program is the smaller (measured in `snapo bench kinetics`,
+2026-11-26: h2o2's gradient compiled in 8 s against 14 s for Rodas5, gri30's in 11 s against
+20 s; run 19 ms against 55 ms, 0.23 s against 0.77 s). Its d ln T / d ln A differ from Rodas5's
+by 9.5e-5 (h2o2) and 5.6e-8 (gri30) normwise, far inside the check's 1e-3 against Cantera."""
 _exported_sensitivities = exported(temperature_sensitivities, name="kinetics-temperature-sensitivities")
 """The reverse pass, traced once and kept on disk (`snapo_ode.exported`): gri30's took ~46-68 s
 to trace and compile in every process."""
@@ -182,6 +184,7 @@ def check_against_cantera(path: str | Path, *, phase: str | None = None, n_state
     comparison = compare_sensitivities(ours_sensitivity, cantera_sensitivity, top=min(top, mechanism.n_reactions))
     result["sensitivities"] = {
         "quantity": "d ln T(t) / d ln A_i", "time_s": time, "after_ignition": bool(time > reference.delay),
+        "solver": _SENSITIVITY_SETTINGS.as_dict(),
         "max_relative_difference": comparison.max_relative_difference, "same_ranking": comparison.same_ranking,
         "top": [{"reaction": int(i), "equation": mechanism.reaction_equations[i], "ours": float(a),
                  "cantera": float(b)} for i, a, b in zip(comparison.indices, comparison.ours, comparison.cantera,
