@@ -201,8 +201,9 @@ class SolverSettings(eqx.Module):
     def as_dict(self) -> dict:
         """The settings, JSON-ready (the step controller named)."""
         fields = {field.name: getattr(self, field.name) for field in dataclasses.fields(self)}
-        return {**fields, "step_controller": f"diffrax.PIDController(rtol, atol, pcoeff={self.pcoeff}, "
-                                             f"icoeff={self.icoeff})"}
+        controller = (f"diffrax.PIDController(rtol, atol, pcoeff={self.pcoeff}, icoeff={self.icoeff})"
+                      if self.solver != "bdf" else "the BDF's own error test and order selection (snapo_ode._bdf)")
+        return {**fields, "step_controller": controller}
 
 
 def _output_times(name: str, saveat: diffrax.SaveAt, t1):
