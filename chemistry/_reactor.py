@@ -49,11 +49,12 @@ REACTOR_BDF_SOLVER = REACTOR_SOLVER.replace(solver="bdf")
 """The reactors' settings with `snapo_ode`'s BDF ("bdf") in place of Rodas5: a Newton iteration
 that reuses its Jacobian and factorisation across steps (CVODES's design) instead of a Jacobian,
 an LU and 8 evaluations a step. At the kinetics benchmark's rtol 1e-10 / atol 1e-14
-(`snapo bench kinetics`, README) it runs h2o2 and gri30 ignitions 3-4x faster than Rodas5, and
-their gradients (one reverse pass, the corrector differentiated implicitly) 2-3x faster, within
+(`snapo bench kinetics`, README) it runs h2o2 and gri30 ignitions 2-5x faster than Rodas5, and
+their gradients (one reverse pass, the corrector differentiated implicitly) 3-7x faster, within
 the tolerance's reach of the converged temperature (h2o2: 6e-7 relative, dominated by atol, where
-Rodas5 is 6e-9 off and Cantera 3e-6). It saves at given times only (no dense output, so not for
-`ignition_delay`); `REACTOR_SOLVER` stays the default."""
+Rodas5 is 6e-9 off and Cantera 3e-6: its error follows atol more than Rodas5's, so tighten atol
+with it). It saves at given times only (no dense output, so not for `ignition_delay`);
+`REACTOR_SOLVER` stays the default."""
 
 
 TRIAL_TEMPERATURE_CEILING = 2.0
