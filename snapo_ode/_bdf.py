@@ -48,6 +48,22 @@ def _corrected(vector_field, jacobian, t, c, increment, predicted, psi, args, fi
     return increment
 
 
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
+def _timed(vector_field, sign, times, ys, args, field_consts):
+    """`ys` (shape `(n_t, n)`) as they are, with their derivative with respect to `times` (which
+    the solve itself holds fixed): `sign` f(t, y) dt. +1 for the outputs (d y(tau) / d tau = f);
+    -1 for the initial state (moving the start by dt0 is moving y0 by -f(t0, y0) dt0)."""
+    return ys
+
+
+@_timed.defjvp
+def _timed_jvp(vector_field, sign, primals, tangents):
+    times, ys, args, field_consts = primals
+    times_dot, ys_dot, _, _ = tangents
+    rates = jax.vmap(lambda t, y: vector_field(t, y, args, *field_consts))(times, ys)
+    return ys, ys_dot + sign * rates * times_dot[:, None]
+
+
 @_corrected.defjvp
 def _corrected_jvp(vector_field, jacobian, primals, tangents):
     t, c, increment, predicted, psi, args, field_consts, jacobian_consts = primals
@@ -62,7 +78,8 @@ def _corrected_jvp(vector_field, jacobian, primals, tangents):
     return increment, jnp.linalg.solve(matrix, c * rate_dot - psi_dot)
 
 
-def _replay(field, jacobian, args, field_consts, jacobian_consts, differences, record, count, ts, *, checkpoints):
+def _replay(field, jacobian, args, field_consts, jacobian_consts, differences, record, count, t0, ts, *,
+            checkpoints):
     """The solution at `ts` from the recorded steps (see the module docstring), differentiable in
     `differences` (the initial ones), `args` and the consts; `count` steps of `record`."""
     dtype = differences.dtype
@@ -71,12 +88,14 @@ def _replay(field, jacobian, args, field_consts, jacobian_consts, differences, r
 
     def step(carry):
         k, differences, saved = carry
-        start, end, order, factor, searched, increment = jax.tree.map(lambda rows: rows[k], record)
+        start, end, h, order, factor, searched, increment = jax.tree.map(lambda rows: rows[k], record)
         # Under jax.vmap the loop goes on for a member that has finished (k >= count): its step
-        # is then a no-op at the initial state with c = 0, every quantity finite, so that the
-        # discarded branch sends no 0 * NaN into a reverse pass.
+        # is then a no-op at the initial time and state with c = 0, every quantity finite (its
+        # row of the record was never written), so that the discarded branch sends no 0 * NaN
+        # into a reverse pass.
         active = k < count
-        h = jnp.where(active, end - start, 1.0)
+        h = jnp.where(active, h, 1.0)
+        end = jnp.where(active, end, t0)
         differences = rescale(differences, order, jnp.where(active, factor, 1.0))
         # The values are the search's, the derivatives those of this recomputation: replayed
         # with its increments held, the recurrence would drift from the search's values by
@@ -93,7 +112,7 @@ def _replay(field, jacobian, args, field_consts, jacobian_consts, differences, r
         saved = jnp.where(within[:, None], interpolate(updated, order, end, h, ts), saved)
         return k + 1, jnp.where(active, updated, differences), saved
 
-    saved = jnp.where((ts <= record.start[0])[:, None] | (count == 0), y0, jnp.zeros((ts.size, y0.size), dtype))
+    saved = jnp.where((ts <= t0)[:, None], y0, jnp.zeros((ts.size, y0.size), dtype))
     carry = (jnp.zeros((), jnp.int32), differences, saved)
     carry = eqxi.while_loop(lambda carry: carry[0] < count, step, carry, max_steps=record.start.size,
                             kind="checkpointed", checkpoints=checkpoints)
@@ -140,7 +159,7 @@ def _reverse_solve_backward(field, jacobian, options, residuals, cotangents):
 
     def replayed(y0, args, field_consts, jacobian_consts):
         differences = _initial_differences(field, t0, y0, args, field_consts, h)
-        return _replay(field, jacobian, args, field_consts, jacobian_consts, differences, record, count, ts,
+        return _replay(field, jacobian, args, field_consts, jacobian_consts, differences, record, count, t0, ts,
                        checkpoints=options[3])
 
     _, pullback = jax.vjp(replayed, y0, args, field_consts, jacobian_consts)
@@ -164,19 +183,24 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
 
     **Returns:** `(ys, stats, status)`: the solution at `ts` (shape `(n_ts, n)`, from the
     interpolant of the step that covers each time), `BdfStats`, and 0 (reached t1), 1 (max_steps
-    reached) or 2 (the step size collapsed, or the Newton iteration never converged).
+    reached), 2 (the step size collapsed, or the Newton iteration never converged) or 3 (t1 <= t0,
+    or an output time outside [t0, t1]). Differentiable in `y0`, `args`, what the functions close
+    over, `t0` and `ts` (d y(tau) / d tau = f), not in `t1` beyond the output times.
     """
-    t0, t1 = jax.lax.stop_gradient(t0), jax.lax.stop_gradient(t1)
     # What the functions close over (e.g. a model's parameters) as arguments, so that it is
     # differentiated too; the search's Newton iteration and decisions see it without gradient.
     field, field_consts = jax.closure_convert(vector_field, t0, y0, args)
     jacobian_fn, jacobian_consts = jax.closure_convert(jacobian, t0, y0, args)
+    timed_t0, timed_ts = t0, ts
+    t0, t1, ts = jax.lax.stop_gradient((t0, t1, ts))
+    y0 = _timed(field, -1.0, jnp.atleast_1d(timed_t0), y0[None], args, field_consts)[0]
     rate, jacobian_ = _frozen(field, jacobian_fn, args, field_consts, jacobian_consts)
     frozen_y0 = jax.lax.stop_gradient(y0)
     h = jax.lax.stop_gradient(_initial_step(rate, t0, t1, frozen_y0, rate(t0, frozen_y0), rtol, atol))
     if reverse:
-        return _reverse_solve(field, jacobian_fn, (rtol, atol, max_steps, checkpoints or max_steps), t0, t1, h, ts,
-                              y0, args, field_consts, jacobian_consts)
+        saved, stats, status = _reverse_solve(field, jacobian_fn, (rtol, atol, max_steps, checkpoints or max_steps),
+                                              t0, t1, h, ts, y0, args, field_consts, jacobian_consts)
+        return _timed_outputs(field, timed_ts, saved, args, field_consts), stats, _checked_times(status, t0, t1, ts)
 
     def corrector(t, c, increment, predicted, psi):
         return _corrected(field, jacobian_fn, t, c, increment, predicted, psi, args, field_consts, jacobian_consts)
@@ -184,4 +208,15 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
     differences = _initial_differences(field, t0, y0, args, field_consts, h)
     saved, _, stats, status = _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol,
                                       max_steps=max_steps, corrector=corrector)
-    return saved, stats, status
+    return _timed_outputs(field, timed_ts, saved, args, field_consts), stats, _checked_times(status, t0, t1, ts)
+
+
+def _timed_outputs(field, times, ys, args, field_consts):
+    """`ys` at `times`, with their derivative with respect to the times (`_timed`)."""
+    return _timed(field, 1.0, times, ys, args, field_consts)
+
+
+def _checked_times(status, t0, t1, ts):
+    """The status, 3 where t1 <= t0 or an output time lies outside [t0, t1] (traced times, which
+    `SolverSettings` cannot check before the solve)."""
+    return jnp.where((t1 > t0) & jnp.all((ts >= t0) & (ts <= t1)), status, 3)

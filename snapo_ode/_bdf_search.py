@@ -30,13 +30,15 @@ class BdfStats(NamedTuple):
 
 
 class _Record(NamedTuple):
-    """The accepted steps of a search, each row one step: `start` and `end` [time], `order`, the
-    net `rescale` of the differences since the previous step's update (clipping at t1, rejected
-    attempts, the previous step's change of size), the `differences` its predictor used (shape
-    `(max_steps, MAX_ORDER + 3, n)`) and its converged `increment` d (shape `(max_steps, n)`)."""
+    """The accepted steps of a search, each row one step: `start` and `end` [time] and its `step`
+    size h (end - start rounds differently), `order`, the net `rescale` of the differences since
+    the previous step's update (clipping at t1, rejected attempts, the previous step's change of
+    size), the `differences` its predictor used (shape `(max_steps, MAX_ORDER + 3, n)`) and its
+    converged `increment` d (shape `(max_steps, n)`)."""
 
     start: jax.Array
     end: jax.Array
+    step: jax.Array
     order: jax.Array
     rescale: jax.Array
     differences: jax.Array
@@ -64,14 +66,17 @@ class _Search(NamedTuple):
 def _initial_step(rate, t0, t1, y0, f0, rtol, atol):
     """A first step for order 1 from the size of y0, f0 and the change of f over a trial step
     (Hairer, Norsett & Wanner, Solving ODEs I, sec. II.4); one more evaluation."""
+    # With t1 <= t0 (a traced empty interval, e.g. one member of a batch) nothing is integrated:
+    # the step is then 1, so that no quantity is 0 / 0 in a derivative.
+    span = jnp.where(t1 > t0, t1 - t0, 1.0)
     scale = atol + rtol * jnp.abs(y0)
     d0, d1 = rms(y0 / scale), rms(f0 / scale)
     h0 = jnp.where((d0 < 1e-5) | (d1 < 1e-5), 1e-6, 0.01 * d0 / d1)
-    h0 = jnp.minimum(h0, t1 - t0)
+    h0 = jnp.minimum(h0, span)
     d2 = rms((rate(t0 + h0, y0 + h0 * f0) - f0) / scale) / h0
     small = (d1 <= 1e-15) & (d2 <= 1e-15)
     h1 = jnp.where(small, jnp.maximum(1e-6, h0 * 1e-3), jnp.sqrt(0.01 / jnp.maximum(jnp.maximum(d1, d2), 1e-300)))
-    return jnp.minimum(jnp.minimum(100.0 * h0, h1), t1 - t0)
+    return jnp.where(t1 > t0, jnp.minimum(jnp.minimum(100.0 * h0, h1), span), 1.0)
 
 
 def _search(rate, jacobian, t0, t1, differences, h, ts, *, rtol, atol, max_steps, corrector=None, record=False):
@@ -127,8 +132,8 @@ def _search(rate, jacobian, t0, t1, differences, h, ts, *, rtol, atol, max_steps
         y_predicted, psi = predict(differences, order)
         converged, iterations, d = newton(*jax.lax.stop_gradient((t_new, y_predicted, psi)), c, lu, pivots,
                                           atol + rtol * jnp.abs(jax.lax.stop_gradient(y_predicted)))
-        if corrector is not None:
-            d = corrector(t_new, c, d, y_predicted, psi)
+        if corrector is not None:  # forward mode: the converged increment, differentiated
+            d = jax.lax.cond(converged, lambda: corrector(t_new, c, d, y_predicted, psi), lambda: d)
 
         # Not converged: with an old Jacobian, take a new one (same step); else halve the step.
         refresh = ~converged & ~s.fresh_jacobian
@@ -139,6 +144,7 @@ def _search(rate, jacobian, t0, t1, differences, h, ts, *, rtol, atol, max_steps
         # The error test of a converged step.
         scale = atol + rtol * jnp.abs(jax.lax.stop_gradient(y_predicted + d))
         error = jax.lax.stop_gradient(rms(error_constant[order] * d / scale))
+        error = jnp.where(jnp.isfinite(error), error, jnp.inf)  # rejects, shrinking by MIN_FACTOR
         safety = 0.9 * (2 * NEWTON_ITERATIONS + 1) / (2 * NEWTON_ITERATIONS + iterations)
         accepted = converged & (error <= 1.0)
         rejected = converged & ~accepted
@@ -164,7 +170,7 @@ def _search(rate, jacobian, t0, t1, differences, h, ts, *, rtol, atol, max_steps
         steps = s.record
         if record:
             steps = jax.tree.map(lambda rows, row: rows.at[s.stats.num_accepted_steps].set(row), steps,
-                                 _Record(s.t, t_new, order, pending, differences, d))
+                                 _Record(s.t, t_new, h, order, pending, differences, d))
         within = accepted & (ts > s.t) & (ts <= t_new)
         saved = jnp.where(within[:, None], interpolate(updated, order, t_new, h, ts), s.saved)
         stats = BdfStats(*(count.astype(jnp.int32) for count in (
@@ -186,7 +192,8 @@ def _search(rate, jacobian, t0, t1, differences, h, ts, *, rtol, atol, max_steps
     one = jnp.ones((), jnp.int32)
     steps = None
     if record:
-        steps = _Record(jnp.zeros(max_steps, dtype), jnp.zeros(max_steps, dtype), jnp.ones(max_steps, jnp.int32),
+        steps = _Record(jnp.zeros(max_steps, dtype), jnp.zeros(max_steps, dtype), jnp.ones(max_steps, dtype),
+                        jnp.ones(max_steps, jnp.int32),
                         jnp.ones(max_steps, dtype), jnp.zeros((max_steps, ROWS, n), dtype),
                         jnp.zeros((max_steps, n), dtype))
     y0 = differences[0]

@@ -108,3 +108,45 @@ def test_bdf_that_runs_out_of_steps_raises_with_advice_and_reports_its_counts():
     # Jacobians and factorisations are reused across steps: far fewer than the steps.
     assert stats["num_jacobians"] < stats["num_accepted_steps"] / 5
     assert stats["num_factorisations"] < stats["num_accepted_steps"]
+
+
+@pytest.mark.parametrize("differentiation", ["reverse", "forward"])
+def test_bdf_derivatives_in_the_start_and_end_times_are_the_solutions(differentiation):
+    """y' = -k y / t from y(t0) = y0: y(t1) = y0 (t0 / t1)^k, so d y(t1) / d t1 = -k y(t1) / t1
+    and d y(t1) / d t0 = k y(t1) / t0 (the solve holds its times fixed; these come from f)."""
+    settings = BDF.replace(differentiation=differentiation)
+
+    def end(times):
+        return settings.solve(lambda t, y, args: -1.5 * y / t, times[0], times[1], jnp.array([2.0])).ys[-1, 0]
+
+    times = jnp.array([1.0, 3.0])
+    derivative = jax.jacrev if differentiation == "reverse" else jax.jacfwd
+    exact = 2.0 * (1.0 / 3.0) ** 1.5
+    np.testing.assert_allclose(np.asarray(jax.jit(derivative(end))(times)), [1.5 * exact / 1.0, -1.5 * exact / 3.0],
+                               rtol=1e-7)
+
+
+def test_bdf_vmapped_gradients_stay_finite_for_members_that_finish_first_or_never_start():
+    """A batch whose members end at different times, one at its start (t1 = t0): each member's
+    gradient equals its single solve's (the replay runs on past a finished member's last step,
+    at its start, where f = -k y / t is finite and a never-written record row's t = 0 is not)."""
+    def end(log_k, t1):
+        return BDF.solve(lambda t, y, args: -jnp.exp(args) * y / t, 1.0, t1, jnp.array([2.0]), log_k).ys[-1, 0]
+
+    gradient = jax.jit(jax.grad(end))
+    t1 = jnp.array([2.0, 30.0, 1.0])
+    batched = np.asarray(jax.jit(jax.vmap(jax.grad(end)))(jnp.zeros(3), t1))
+    single = np.array([float(gradient(0.0, t)) for t in t1])
+    assert np.all(np.isfinite(batched))
+    np.testing.assert_allclose(batched, single, rtol=1e-10, atol=1e-14)
+    np.testing.assert_allclose(single, [-2.0 * np.log(t) * t ** -1.0 for t in np.asarray(t1)], rtol=1e-7, atol=1e-14)
+
+
+def test_bdf_with_traced_times_out_of_order_raises_and_integer_states_are_promoted():
+    def end(t1):
+        return BDF.solve(lambda t, y, args: -y, 1.0, t1, jnp.array([2.0])).ys[-1]
+
+    with pytest.raises(Exception, match="t1 must exceed t0"):
+        jax.block_until_ready(jax.jit(end)(0.5))
+    ys = BDF.solve(lambda t, y, args: -y, 0.0, 1.0, jnp.array([2, 1])).ys[-1]
+    np.testing.assert_allclose(np.asarray(ys), np.array([2.0, 1.0]) * np.exp(-1.0), rtol=1e-8)
