@@ -33,7 +33,7 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from ._bdf_formulas import ALPHA, ROWS, interpolate, predict, rescale, update
+from ._bdf_formulas import ALPHA, ROWS, initial_outputs, interpolate, predict, rescale, update
 from ._bdf_search import _initial_step, _search
 
 
@@ -112,8 +112,7 @@ def _replay(field, jacobian, args, field_consts, jacobian_consts, differences, r
         saved = jnp.where(within[:, None], interpolate(updated, order, end, h, ts), saved)
         return k + 1, jnp.where(active, updated, differences), saved
 
-    saved = jnp.where((ts <= t0)[:, None], y0, jnp.zeros((ts.size, y0.size), dtype))
-    carry = (jnp.zeros((), jnp.int32), differences, saved)
+    carry = (jnp.zeros((), jnp.int32), differences, initial_outputs(ts, t0, y0))
     carry = eqxi.while_loop(lambda carry: carry[0] < count, step, carry, max_steps=record.start.size,
                             kind="checkpointed", checkpoints=checkpoints)
     return carry[2]
@@ -131,25 +130,28 @@ def _initial_differences(field, t0, y0, args, field_consts, h):
     return jnp.zeros((ROWS, y0.size), y0.dtype).at[0].set(y0).at[1].set(h * f0)
 
 
+def _searched(field, jacobian, options, t0, t1, h, ts, y0, args, field_consts, jacobian_consts, *, record):
+    """`_search` of the model from y0, values only (optionally recording its steps)."""
+    rtol, atol, max_steps, _ = options
+    rate, jacobian_ = _frozen(field, jacobian, args, field_consts, jacobian_consts)
+    differences = _initial_differences(field, t0, y0, args, field_consts, h)
+    return _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol, max_steps=max_steps,
+                   record=record)
+
+
 @functools.partial(jax.custom_vjp, nondiff_argnums=(0, 1, 2))
 def _reverse_solve(field, jacobian, options, t0, t1, h, ts, y0, args, field_consts, jacobian_consts):
     """The solve for `differentiation="reverse"`: the search alone when nothing differentiates it;
     under reverse mode the search records its steps and the backward pass replays them
     (`_replay`). `options`: (rtol, atol, max_steps, checkpoints)."""
-    rtol, atol, max_steps, _ = options
-    rate, jacobian_ = _frozen(field, jacobian, args, field_consts, jacobian_consts)
-    differences = _initial_differences(field, t0, y0, args, field_consts, h)
-    saved, _, stats, status = _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol,
-                                      max_steps=max_steps)
+    saved, _, stats, status = _searched(field, jacobian, options, t0, t1, h, ts, y0, args, field_consts,
+                                        jacobian_consts, record=False)
     return saved, stats, status
 
 
 def _reverse_solve_forward(field, jacobian, options, t0, t1, h, ts, y0, args, field_consts, jacobian_consts):
-    rtol, atol, max_steps, _ = options
-    rate, jacobian_ = _frozen(field, jacobian, args, field_consts, jacobian_consts)
-    differences = _initial_differences(field, t0, y0, args, field_consts, h)
-    saved, record, stats, status = _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol,
-                                           max_steps=max_steps, record=True)
+    saved, record, stats, status = _searched(field, jacobian, options, t0, t1, h, ts, y0, args, field_consts,
+                                             jacobian_consts, record=True)
     residuals = (record, stats.num_accepted_steps, t0, t1, h, ts, y0, args, field_consts, jacobian_consts)
     return (saved, stats, status), residuals
 
@@ -200,23 +202,15 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
     if reverse:
         saved, stats, status = _reverse_solve(field, jacobian_fn, (rtol, atol, max_steps, checkpoints or max_steps),
                                               t0, t1, h, ts, y0, args, field_consts, jacobian_consts)
-        return _timed_outputs(field, timed_ts, saved, args, field_consts), stats, _checked_times(status, t0, t1, ts)
+    else:
+        def corrector(t, c, increment, predicted, psi):
+            return _corrected(field, jacobian_fn, t, c, increment, predicted, psi, args, field_consts,
+                              jacobian_consts)
 
-    def corrector(t, c, increment, predicted, psi):
-        return _corrected(field, jacobian_fn, t, c, increment, predicted, psi, args, field_consts, jacobian_consts)
-
-    differences = _initial_differences(field, t0, y0, args, field_consts, h)
-    saved, _, stats, status = _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol,
-                                      max_steps=max_steps, corrector=corrector)
-    return _timed_outputs(field, timed_ts, saved, args, field_consts), stats, _checked_times(status, t0, t1, ts)
-
-
-def _timed_outputs(field, times, ys, args, field_consts):
-    """`ys` at `times`, with their derivative with respect to the times (`_timed`)."""
-    return _timed(field, 1.0, times, ys, args, field_consts)
-
-
-def _checked_times(status, t0, t1, ts):
-    """The status, 3 where t1 <= t0 or an output time lies outside [t0, t1] (traced times, which
-    `SolverSettings` cannot check before the solve)."""
-    return jnp.where((t1 > t0) & jnp.all((ts >= t0) & (ts <= t1)), status, 3)
+        differences = _initial_differences(field, t0, y0, args, field_consts, h)
+        saved, _, stats, status = _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol,
+                                          max_steps=max_steps, corrector=corrector)
+    # The status is 3 where the (traced) times are out of order: `SolverSettings` checks concrete
+    # ones before the solve.
+    status = jnp.where((t1 > t0) & jnp.all((ts >= t0) & (ts <= t1)), status, 3)
+    return _timed(field, 1.0, timed_ts, saved, args, field_consts), stats, status

@@ -71,3 +71,9 @@ def interpolate(differences, order, t, h, times):
     factors = (times[:, None] - (t - m * h)) / ((m + 1) * h)  # (n_ts, MAX_ORDER)
     products = jnp.cumprod(factors, axis=1) * (m + 1 <= order)
     return differences[0] + products @ differences[1:MAX_ORDER + 1]
+
+
+def initial_outputs(ts, t0, y0):
+    """The outputs before the first step, shape `(n_ts, n)`: y0 at the times <= t0, zeros (to be
+    filled by the steps that cover them) at the others."""
+    return jnp.where((ts <= t0)[:, None], y0, jnp.zeros((ts.size, y0.size), y0.dtype))

@@ -9,7 +9,8 @@ import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
 
-from ._bdf_formulas import ALPHA, ERROR_CONSTANT, MAX_ORDER, ROWS, interpolate, predict, rescale, rms, update
+from ._bdf_formulas import (ALPHA, ERROR_CONSTANT, MAX_ORDER, ROWS, initial_outputs, interpolate, predict, rescale,
+                            rms, update)
 
 NEWTON_ITERATIONS = 4
 """Newton iterations per attempt; a slower one refreshes the Jacobian, then halves the step."""
@@ -197,7 +198,7 @@ def _search(rate, jacobian, t0, t1, differences, h, ts, *, rtol, atol, max_steps
                         jnp.ones(max_steps, dtype), jnp.zeros((max_steps, ROWS, n), dtype),
                         jnp.zeros((max_steps, n), dtype))
     y0 = differences[0]
-    saved = jnp.where((ts <= t0)[:, None], y0, jnp.zeros((ts.size, n), dtype))
+    saved = initial_outputs(ts, t0, y0)
     state = _Search(jnp.asarray(t0, dtype), h, one, differences, jacobian(t0, jax.lax.stop_gradient(y0)),
                     jnp.zeros((n, n), dtype), jnp.zeros(n, jnp.int32), jnp.asarray(False), jnp.asarray(True), zero,
                     jnp.ones((), dtype), steps, saved, BdfStats(zero, zero, one, zero, 2 * one), jnp.asarray(False))
