@@ -29,6 +29,7 @@ rows took 25 ms to allocate on gri30, three times the solve).
 
 import functools
 
+import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
@@ -42,10 +43,27 @@ def _corrected(vector_field, jacobian, t, c, increment, predicted, psi, args, fi
     """The corrector's converged `increment` d (found by the Newton iteration), as a function of
     `predicted`, `psi`, `args` and the values f closes over: d solves
     d - `c` f(`t`, `predicted` + d, `args`) + `psi` = 0. The functions are closure-converted
-    (`jax.closure_convert`: `vector_field(t, y, args, *field_consts)`), so that what they close
+    (`_hoisted`: `vector_field(t, y, args, *field_consts)`), so that what they close
     over (a model's parameters) is differentiated too. The value is `increment` itself; the
     tangent is the implicit function's (see the JVP)."""
     return increment
+
+
+def _hoisted(fn, t0, y0, args):
+    """`fn(t, y, args)` as `(converted, consts)` with `converted(t, y, args, *consts)`: every
+    tracer `fn` closes over hoisted into `consts` (`equinox.filter_closure_convert`; constants
+    stay closed over, as `jax.closure_convert` leaves them). `jax.closure_convert` also leaves
+    integer tracers closed over: under an outer `jit` they then leak out of the custom rules and
+    fail the lowering ("No constant handler for type: DynamicJaxprTracer"; the pharma chain's
+    index arrays did, in both modes)."""
+    consts, static = eqx.partition(eqx.filter_closure_convert(fn, t0, y0, args),
+                                   lambda leaf: isinstance(leaf, jax.core.Tracer))
+    leaves, treedef = jax.tree.flatten(consts)
+
+    def converted(t, y, args, *leaves):
+        return eqx.combine(jax.tree.unflatten(treedef, leaves), static)(t, y, args)
+
+    return converted, leaves
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
@@ -191,8 +209,8 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
     """
     # What the functions close over (e.g. a model's parameters) as arguments, so that it is
     # differentiated too; the search's Newton iteration and decisions see it without gradient.
-    field, field_consts = jax.closure_convert(vector_field, t0, y0, args)
-    jacobian_fn, jacobian_consts = jax.closure_convert(jacobian, t0, y0, args)
+    field, field_consts = _hoisted(vector_field, t0, y0, args)
+    jacobian_fn, jacobian_consts = _hoisted(jacobian, t0, y0, args)
     timed_t0, timed_ts = t0, ts
     t0, t1, ts = jax.lax.stop_gradient((t0, t1, ts))
     y0 = _timed(field, -1.0, jnp.atleast_1d(timed_t0), y0[None], args, field_consts)[0]

@@ -81,6 +81,27 @@ def test_bdf_derivatives_in_both_modes_match_central_bumps(closure):
     assert np.all(np.abs(reverse) > 1e-6)  # every component moves
 
 
+@pytest.mark.parametrize("differentiation", ["reverse", "forward"])
+def test_bdf_derivatives_through_a_field_that_closes_over_traced_integers(differentiation):
+    """A vector field that closes over an integer array traced by an outer `jit` (as a model's
+    index arrays are, passed to a jitted function): `jax.closure_convert` left it closed over and
+    the lowering failed on a leaked tracer. Its derivative against central bumps."""
+    settings = BDF.replace(rtol=1e-12, atol=1e-16, max_steps=50_000, differentiation=differentiation)
+
+    @jax.jit
+    def final(log_k1, species):
+        field = lambda t, y, args: robertson(t, y[species], log_k1)[species]  # noqa: E731 - a relabelling
+        return settings.solve(field, 0.0, 40.0, jnp.array([0.0, 1.0, 0.0]), saveat=diffrax.SaveAt(t1=True)).ys[-1]
+
+    species = jnp.array([1, 0, 2])  # species 0 is stored second
+    differentiate = jax.jacrev if differentiation == "reverse" else jax.jacfwd
+    derivative = np.asarray(jax.jit(differentiate(final))(0.0, species))
+    step = 1e-3
+    bumped = (np.asarray(final(step, species)) - np.asarray(final(-step, species))) / (2 * step)
+    np.testing.assert_allclose(derivative, bumped, rtol=1e-6, atol=1e-12)
+    assert np.all(np.abs(derivative) > 1e-6)
+
+
 def test_bdf_batch_equals_single_solves():
     log_k1 = jnp.array([-0.5, 0.0, 0.7])
     batch = np.asarray(jax.jit(jax.vmap(solve_robertson))(log_k1))
