@@ -17,7 +17,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._io": ("MANIFEST", "atomic_write_bytes", "atomic_write_json", "atomic_write_text", "check_replaceable_directory",
              "json_bytes", "publish", "publish_directory", "sha256"),
     "._export_keys": ("Unkeyable", "describe"),
-    "._exported": ("QUICK_COMPILE", "ExportedProgram", "exported"),
+    "._exported": ("ONCE_COMPILE", "QUICK_COMPILE", "ExportedProgram", "exported"),
     "._jaxpr": ("count_operations",),
     "._lazy": ("lazy_exports",),
     "._ode": ("SolverFailed", "call_checked", "diffeqsolve_checked", "prefetch_checked", "raise_if_failed"),

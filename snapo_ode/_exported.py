@@ -58,6 +58,12 @@ process): the pharma chain's adjoint 15.7 -> 9.5 CPU-s, its reference 9.0 -> 4.9
 5.9 -> 4.7, with the same run times (`snapo bench pharma` side by side); but the kinetics
 gradients ran 24-40% slower with them (`snapo bench kinetics`), so it is chosen per program, not
 made the default."""
+ONCE_COMPILE = {**QUICK_COMPILE, "xla_backend_optimization_level": 0}
+"""XLA options for a program a command runs once (a check: a reference, central differences):
+`QUICK_COMPILE` with LLVM's optimisation off. Measured (2-core CPU, 2026-11-26, each compile in a
+new process, side by side): the pharma reference's compile 5.0 -> 2.9 CPU-s and its run 117 ->
+267 ms; the bumps' 4.9 -> 2.2 CPU-s; the adjoint's 10.1 -> 5.2 CPU-s, but its run 11.9 -> 22.8
+ms, so a program that is timed or run many times keeps `QUICK_COMPILE`."""
 
 _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deserialised program
 _PREFETCHED: dict[pathlib.Path, concurrent.futures.Future] = {}  # entry -> its reading, under way

@@ -2,7 +2,7 @@
 error against wall time per solver and tolerance) and study "gradients": what an accurate
 dCQA/dCPP costs. The 20 sensitivities by each way of differentiating through the solves (reverse mode with
 a checkpoint at every step, reverse mode with few checkpoints, forward mode, central bumps) at
-each tolerance: relative error against the tight reference (`REFERENCE`, Kvaerno5 at rtol 1e-12)
+each tolerance: relative error against the tight reference (`REFERENCE`: BDF and Kvaerno5, rtol 1e-12)
 against the median wall time after compile, with compile time and XLA's temporary memory."""
 
 import equinox as eqx
@@ -17,7 +17,7 @@ from ._chain import CHAIN_SOLVER, PharmaChain
 from ._cqa import cqa_vector
 from ._parameters import make_cpps
 from ._sensitivities import _values_and_jacobian, cpp_only, jacobian_function
-from ._study import REFERENCE
+from ._study import REFERENCE, REFERENCE_METHODS
 
 TARGET = 1e-6
 """The report's accuracy: a relative error of the 20 dCQA/dCPP at or below 1e-6."""
@@ -44,7 +44,7 @@ CHAIN_SOLVERS = {
 
 
 def chain_solver_panel(rtols, repeats: int) -> Panel:
-    """The five CQAs' max relative error against `REFERENCE` (Kvaerno5 at rtol 1e-12) against the
+    """The five CQAs' max relative error against `REFERENCE` (BDF and Kvaerno5, rtol 1e-12) against the
     median wall time of one simulation, per solver pair and rtol (atol = rtol / 100)."""
     base = PharmaChain()
     inputs = base.inputs(make_cpps())
@@ -63,7 +63,7 @@ def chain_solver_panel(rtols, repeats: int) -> Panel:
                                       lambda cqas: agreement(np.asarray(cqas), reference).max_rel_diff, repeats))
     return Panel("stiff_pharma_chain", "Pharma chain (R1, R2, crystallizer, dryer): the five CQAs",
                  "wall time after compile [s]", "max relative error of the CQAs", points, target=TARGET,
-                 notes=(f"Reference: Kvaerno5 on every unit at rtol {REFERENCE.rtol:g}; Rodas4 on every unit at the same "
+                 notes=(f"Reference: {REFERENCE_METHODS} at rtol {REFERENCE.rtol:g}; Rodas4 on every unit at the same "
                         f"tolerances agrees with it to {agreement(rodas_check, reference).max_rel_diff:.1e}. The host "
                         "solvers (SUNDIALS CVODE through scikit-sundae, SciPy) integrate each unit of the same chain, "
                         "calling our compiled right-hand side and Jacobian from Python at every evaluation: their "
@@ -106,8 +106,8 @@ def gradient_study(args) -> list[AccuracyStudy]:
     panel = Panel(
         "gradients_pharma_chain", "Pharma chain: 20 dCQA/dCPP, error against wall time",
         "wall time after compile [s]", "max relative error of the 20 dCQA/dCPP", points, target=TARGET,
-        notes=(f"Reference: reverse mode through Kvaerno5 at rtol {REFERENCE.rtol:g}; forward mode at the same "
-               f"tolerances agrees with it to {reference_check:.1e}. Each method's points run from the loosest "
+        notes=(f"Reference: reverse mode through {REFERENCE_METHODS} at rtol {REFERENCE.rtol:g}; forward mode at "
+               f"the same tolerances agrees with it to {reference_check:.1e}. Each method's points run from the loosest "
                "tolerance (left) to the tightest. `temp_megabytes` in the CSV is XLA's temporary memory of the "
                "compiled program: what the checkpoints cost."))
     text = ("How the derivative is taken through the chain's solves (R1, R2: Rodas5; crystallizer and dryer: "

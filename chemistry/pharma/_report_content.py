@@ -6,6 +6,7 @@ from snapo_ode import Bullets, Figure, Heading, Highlights, Paragraph, Section, 
 
 from ._ranges import CPP_NAMES, CQA_NAMES
 from ._report_figures import design_space_figure, profile_figure, tornado_figure
+from ._study import REFERENCE_METHODS
 
 V = Value
 IMPACT_WORDS = {"high": "high: can leave the spec within the PAR", "medium": "medium", "low": "low"}
@@ -153,7 +154,7 @@ def methods_section(data: dict) -> Section:
         ("sensitivities (CPP block) against Richardson central differences, largest relative difference",
          V((*ver, "max_rel_diff_fd"), ".2e")),
         ("every parameter sensitivity against central differences", V((*ver, "max_rel_diff_fd_parameters"), ".2e")),
-        ("sensitivities against the reference solver (Kvaerno5 on every unit, tight tolerances)",
+        (f"sensitivities against the reference solver ({REFERENCE_METHODS}, tight tolerances)",
          V((*ver, "reference_rel_error"), ".2e")),
         ("every parameter sensitivity against the reference solver", V((*ver, "reference_rel_error_parameters"), ".2e")),
         ("CQAs against the reference solver, relative", V((*ver, "reference_cqa_rel_error"), ".2e")),

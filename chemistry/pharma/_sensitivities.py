@@ -11,7 +11,7 @@ import numpy as np
 from jax.sharding import NamedSharding
 
 from snapo_ode import (
-    QUICK_COMPILE, SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, exported, flatten_inputs, jacobian, per_sample,
+    ONCE_COMPILE, QUICK_COMPILE, SAMPLES, Jacobian, bump_steps, call_checked, choose_mode, exported, flatten_inputs, jacobian, per_sample,
     prefetch_checked, spec, to_host)
 
 from ._chain import PharmaChain
@@ -70,28 +70,33 @@ def _values_and_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameter
 _exported_values_and_jacobian = exported(_values_and_jacobian, name="pharma-jacobian", compiler_options=QUICK_COMPILE)
 """The chain's Jacobian programs, compiled with `snapo_ode.QUICK_COMPILE`: a cold first process
 spends more on their compiles than on their runs (measured side by side: README)."""
+_exported_check = exported(_values_and_jacobian, name="pharma-jacobian-check", compiler_options=ONCE_COMPILE)
+"""The same programs for a Jacobian a command computes once (a study's tight-tolerance
+reference), compiled with `snapo_ode.ONCE_COMPILE`: half the compile, twice the run."""
 
 
-def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str):
+def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str, *, once: bool = False):
     """A jitted function of the inputs -> (CQAs (5,), Jacobian (5, n)), with the chain's adjoint
     set for `mode` ("reverse": 5 vmapped vjp passes; "forward": n vmapped jvp tangents). With
     `with_parameters=False`, n = 4 (the CPPs). One program per (scene, solver, mode, shapes) is
     shared by every caller in the process, and kept on disk traced (`snapo_ode.exported`) and
     compiled (the persistent compilation cache), so a second process does neither
-    (`snapo_ode.call_checked`: a failed solve raises `SolverFailed` here, on the host)."""
+    (`snapo_ode.call_checked`: a failed solve raises `SolverFailed` here, on the host). With
+    `once`, a program for a Jacobian computed once (`_exported_check`)."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
-    return lambda inputs: call_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode,
-                                       what="the chain's sensitivities")
+    program = _exported_check if once else _exported_values_and_jacobian
+    return lambda inputs: call_checked(program, chain, inputs, with_parameters, mode, what="the chain's sensitivities")
 
 
 def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: bool, mode: str, *,
-                      elsewhere: bool = False) -> bool:
-    """Prepare `jacobian_function(chain, with_parameters, mode)`'s program for `inputs` ahead of
+                      once: bool = False, elsewhere: bool = False) -> bool:
+    """Prepare `jacobian_function(chain, with_parameters, mode, once=once)`'s program for `inputs` ahead of
     its call (`snapo_ode.prefetch_checked`: read in the background if on disk, else traced here,
     or with `elsewhere` in a helper process, and compiled in the background); whether it was on
     disk."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
-    return prefetch_checked(_exported_values_and_jacobian, chain, inputs, with_parameters, mode, elsewhere=elsewhere)
+    program = _exported_check if once else _exported_values_and_jacobian
+    return prefetch_checked(program, chain, inputs, with_parameters, mode, elsewhere=elsewhere)
 
 
 def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mesh=None):

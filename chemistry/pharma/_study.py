@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from snapo_ode import (
-    QUICK_COMPILE, Jacobian, Result, agreement, bump_steps, bumps_program, call_checked, compare_with_bumps, exported, field,
+    ONCE_COMPILE, Jacobian, Result, agreement, bump_steps, bumps_program, call_checked, compare_with_bumps, exported, field,
     flatten_inputs, prefetch_checked, time_function)
 
 from ._chain import CHAIN_SOLVER, PharmaChain
@@ -20,11 +20,18 @@ from ._sensitivities import (
     cqa_function, input_names, input_scales, jacobian_function, named_jacobian, normalized, parameter_names,
     prefetch_jacobian, resolve_mode)
 
-REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="kvaerno5", nonstiff_solver="kvaerno5",
+REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="bdf", nonstiff_solver="kvaerno5",
                                  max_steps=20000)
-"""The reference Jacobian's solver: a different method (ESDIRK Kvaerno5 on every unit) from the
-default (Rodas5 and Tsit5), so that `reference_rel_error` checks the method and the step.
-`sensitivity_study` differentiates it by the other mode from the study's (`other_mode`)."""
+"""The reference Jacobian's solver: a different method on every unit from the default (Rodas5
+and Tsit5), so that `reference_rel_error` checks the method and the step: the BDF (multistep) on
+R1 and R2, the ESDIRK Kvaerno5 on the crystallizer and the dryer. `sensitivity_study`
+differentiates it by the other mode from the study's (`other_mode`). Kvaerno5 on every unit was
+the reference until 2026-11-26: the two agree to 1e-9 (tested; each ~1e-9 from both at rtol
+1e-13, 250x below the study's errors at the default rtol 1e-8), and the BDF's forward-mode
+program traces in 3.3 s against Kvaerno5's 4.9 s (alone, 2-core CPU), the cold study's last
+program to be ready."""
+REFERENCE_METHODS = "the BDF on R1 and R2, Kvaerno5 on the crystallizer and the dryer"
+"""`REFERENCE`'s methods, as notes and reports name them."""
 BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
 """The central differences' solver: an error far below their step."""
 BUMP_RELATIVE_STEP = 1e-3
@@ -35,8 +42,8 @@ stays far below 1e-5)."""
 def other_mode(mode: str) -> str:
     """The reference's mode for a study in `mode`: the other one, so that the reference also
     checks the study's derivative. For the default reverse study that is forward mode, which
-    also traces in half the time of reverse mode through Kvaerno5's root finder (5 s against
-    10.5 s, the critical path of a cold `snapo pharma sensitivities` then) and runs in about the
+    also traced in half the time of reverse mode through Kvaerno5's root finder (5 s against
+    10.5 s, the critical path of a cold `snapo pharma sensitivities` then) and ran in about the
     same (0.16-0.24 s against 0.18 s)."""
     return "forward" if mode == "reverse" else "reverse"
 
@@ -103,12 +110,13 @@ class SensitivityStudy(Result):
         return "\n".join(lines)
 
 
-def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto", repeats: int = 5
-                  ) -> tuple[Jacobian, object]:
+def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto", repeats: int = 5,
+                  once: bool = False) -> tuple[Jacobian, object]:
     """The named Jacobian of the CQAs over every input (`mode` "auto" picks reverse for 5
-    outputs and ~50 inputs: 5 passes) and its `snapo_ode.Timing`."""
+    outputs and ~50 inputs: 5 passes) and its `snapo_ode.Timing` (`once`: as
+    `jacobian_function`'s)."""
     mode = resolve_mode(mode, len(input_names(chain)))
-    timing, (values, matrix) = time_function(jacobian_function(chain, True, mode), inputs, repeats=repeats)
+    timing, (values, matrix) = time_function(jacobian_function(chain, True, mode, once=once), inputs, repeats=repeats)
     return named_jacobian(chain, inputs, values, matrix, mode), timing
 
 
@@ -138,7 +146,7 @@ def _bumped_cqas(bumped_chain: PharmaChain, inputs: ChainInputs, args, steps):
     return bumps_program(cqa_function(bumped_chain), richardson=True)(inputs, args, steps)
 
 
-_exported_bumps = exported(_bumped_cqas, name="pharma-bumps", compiler_options=QUICK_COMPILE)
+_exported_bumps = exported(_bumped_cqas, name="pharma-bumps", compiler_options=ONCE_COMPILE)
 """The central differences' program, exported (keyed by the bumped chain and the steps' shape), so
 that a second process does not trace it; defined here, so that a helper process can trace it."""
 
@@ -161,7 +169,7 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, 
     one after another were 19.5 s of a 35 s cold run. The bumps' steps are built as
     `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
     if reference is not None:
-        prefetch_jacobian(chain.with_solver(reference), inputs, True, other_mode(mode), elsewhere=True)
+        prefetch_jacobian(chain.with_solver(reference), inputs, True, other_mode(mode), once=True, elsewhere=True)
     if bumped_chain is not None:
         steps = jnp.asarray(bump_steps(flatten_inputs(inputs)[0], BUMP_RELATIVE_STEP, 0.0))
         prefetch_checked(_exported_bumps, bumped_chain, inputs, (), steps, elsewhere=True)
@@ -199,7 +207,7 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
         jac, timing = sensitivities(chain, inputs, mode=mode, repeats=repeats)
         seconds, compile_seconds = timing.median_seconds, timing.compile_seconds
     if reference is not None:
-        tight, _ = sensitivities(chain.with_solver(reference), inputs, mode=other_mode(mode), repeats=1)
+        tight, _ = sensitivities(chain.with_solver(reference), inputs, mode=other_mode(mode), repeats=1, once=True)
         values, tight_values = np.asarray(jac.values), np.asarray(tight.values)
         checks.update(reference_rel_error=agreement(jac.columns(CPP_NAMES), tight.columns(CPP_NAMES)).max_rel_diff,
                       reference_rel_error_parameters=agreement(jac.matrix, tight.matrix, scales=scales).max_rel_diff,
