@@ -51,19 +51,23 @@ from ._export_keys import _ARRAYS, Unkeyable, _packages, describe, entry_path, e
 from ._io import atomic_write_bytes
 
 _MAGIC = b"snapo-exported 1\n"
-QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False}
+QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 1}
 """XLA options for a program whose compiles cost more than its runs: on a CPU, XLA's elemental
-emitters instead of its fusion emitters. Measured (2-core CPU, 2026-11-26, each compile in a new
-process): the pharma chain's adjoint 15.7 -> 9.5 CPU-s, its reference 9.0 -> 4.9, its bumps
-5.9 -> 4.7, with the same run times (`snapo bench pharma` side by side); but the kinetics
-gradients ran 24-40% slower with them (`snapo bench kinetics`), so it is chosen per program, not
-made the default."""
+emitters instead of its fusion emitters, and LLVM's optimisation at level 1 (of 3; XLA's default
+2). Measured (2-core CPU, 2026-11-26, each compile in a new process): the pharma chain's adjoint
+15.7 -> 9.5 CPU-s with the elemental emitters, its reference 9.0 -> 4.9, its bumps 5.9 -> 4.7,
+with the same run times (`snapo bench pharma` side by side); then level 1 against 2, compiled
+and run side by side in one process (60 runs each): the adjoint over every input 8.9 -> 7.7
+CPU-s, run 11.7 / 11.5 ms (medians), over the 4 CPPs 9.0 -> 7.4 CPU-s, 13.9 / 14.1 ms, values
+equal to 6e-14. The kinetics gradients ran 24-40% slower with the elemental emitters (`snapo
+bench kinetics`), so the options are chosen per program, not made the default."""
 ONCE_COMPILE = {**QUICK_COMPILE, "xla_backend_optimization_level": 0}
 """XLA options for a program a command runs once (a check: a reference, central differences):
 `QUICK_COMPILE` with LLVM's optimisation off. Measured (2-core CPU, 2026-11-26, each compile in a
-new process, side by side): the pharma reference's compile 5.0 -> 2.9 CPU-s and its run 117 ->
-267 ms; the bumps' 4.9 -> 2.2 CPU-s; the adjoint's 10.1 -> 5.2 CPU-s, but its run 11.9 -> 22.8
-ms, so a program that is timed or run many times keeps `QUICK_COMPILE`."""
+new process, side by side against the elemental emitters at level 2): the pharma reference's
+compile (the BDF's) 7.2 -> 4.1 CPU-s and its run 94 -> 332 ms; the bumps' 4.9 -> 2.2 CPU-s and
+their run 0.17 -> 0.41 s; the adjoint's 10.1 -> 5.2 CPU-s, but its run 11.9 -> 22.8 ms, so a
+program that is timed or run many times keeps `QUICK_COMPILE`."""
 
 _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deserialised program
 _PREFETCHED: dict[pathlib.Path, concurrent.futures.Future] = {}  # entry -> its reading, under way

@@ -82,6 +82,21 @@ def test_compare_with_bumps_reports_agreement_and_timings():
     assert comparison.sequential_seconds > 0 and comparison.forward_mode_seconds > 0
 
 
+def test_untimed_bumps_run_once_and_report_no_timing():
+    calls = []
+
+    def counted(program, *args):
+        calls.append(program)
+        return program(*args)
+
+    comparison = snapo_ode.compare_with_bumps(objective, INPUTS, select=lambda p: p["a"], repeats=1, bump_repeats=0,
+                                              call=counted)
+    np.testing.assert_allclose(comparison.bumped, analytic(INPUTS)["a"], rtol=1e-8)
+    assert comparison.max_rel_diff < 1e-8
+    assert comparison.bump_seconds is None and comparison.bump_compile_seconds is None and comparison.speedup is None
+    assert len(calls) == 3  # the adjoint twice (a first call, one timed), the bumps once
+
+
 def test_vector_outputs_richardson_differences_and_named_jacobian():
     def outputs(inputs):
         return jnp.stack([objective(inputs), jnp.sin(inputs["b"]) * 1e-6, jnp.sum(inputs["a"])])

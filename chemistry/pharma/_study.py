@@ -110,13 +110,12 @@ class SensitivityStudy(Result):
         return "\n".join(lines)
 
 
-def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto", repeats: int = 5,
-                  once: bool = False) -> tuple[Jacobian, object]:
+def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto", repeats: int = 5
+                  ) -> tuple[Jacobian, object]:
     """The named Jacobian of the CQAs over every input (`mode` "auto" picks reverse for 5
-    outputs and ~50 inputs: 5 passes) and its `snapo_ode.Timing` (`once`: as
-    `jacobian_function`'s)."""
+    outputs and ~50 inputs: 5 passes) and its `snapo_ode.Timing`."""
     mode = resolve_mode(mode, len(input_names(chain)))
-    timing, (values, matrix) = time_function(jacobian_function(chain, True, mode, once=once), inputs, repeats=repeats)
+    timing, (values, matrix) = time_function(jacobian_function(chain, True, mode), inputs, repeats=repeats)
     return named_jacobian(chain, inputs, values, matrix, mode), timing
 
 
@@ -159,21 +158,31 @@ def _call_bumps(adjoint, bumped_chain: PharmaChain, program, *args):
     return call_checked(_exported_bumps, bumped_chain, *args, what="the chain's sensitivities")
 
 
-def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, reference) -> None:
+def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, reference) -> bool:
     """Prepare the study's programs before the first runs (`snapo_ode.prefetch_checked`): the
     adjoint, the bumps (of `bumped_chain`, or None) and the reference Jacobian (its solver
-    settings or None). A second process reads them in background threads (one after another
-    they took ~2 s of the ~5.5 s a warm `snapo pharma sensitivities` took, on 2 cores). A first
-    one hands the reference and the bumps to helper processes (`elsewhere`), started first, and
-    traces the adjoint here meanwhile: tracing holds the interpreter lock, and the three traces
-    one after another were 19.5 s of a 35 s cold run. The bumps' steps are built as
+    settings or None); whether the reference was on disk. A second process reads them in
+    background threads (one after another they took ~2 s of the ~5.5 s a warm `snapo pharma
+    sensitivities` took, on 2 cores). A first one hands the reference to a helper process
+    (`elsewhere`), started first, and traces the adjoint here meanwhile (tracing holds the
+    interpreter lock: the three traces one after another were 19.5 s of a 35 s cold run), then
+    the bumps while the adjoint compiles (a second helper for the bumps measured 0.4 s slower:
+    21.2-21.8 s against 20.6-21.3 s, taking turns). The bumps' steps are built as
     `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
-    if reference is not None:
-        prefetch_jacobian(chain.with_solver(reference), inputs, True, other_mode(mode), once=True, elsewhere=True)
+    on_disk = reference is not None and prefetch_jacobian(chain.with_solver(reference), inputs, True,
+                                                          other_mode(mode), once=True, elsewhere=True)
+    prefetch_jacobian(chain, inputs, True, mode)
     if bumped_chain is not None:
         steps = jnp.asarray(bump_steps(flatten_inputs(inputs)[0], BUMP_RELATIVE_STEP, 0.0))
-        prefetch_checked(_exported_bumps, bumped_chain, inputs, (), steps, elsewhere=True)
-    prefetch_jacobian(chain, inputs, True, mode)
+        prefetch_checked(_exported_bumps, bumped_chain, inputs, (), steps)
+    return on_disk
+
+
+def _reference_jacobian(chain: PharmaChain, inputs: ChainInputs, reference, mode: str) -> Jacobian:
+    """The named Jacobian at `reference`'s settings by the other mode: a check, run once and not
+    timed (a second run only to time it took 0.1-0.3 s)."""
+    values, matrix = jacobian_function(chain.with_solver(reference), True, other_mode(mode), once=True)(inputs)
+    return named_jacobian(chain, inputs, values, matrix, other_mode(mode))
 
 
 def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
@@ -183,19 +192,23 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     central differences (at `BUMP_SOLVER`'s tolerances) and the Jacobian at `reference`'s
     tolerances by the other mode (`other_mode`; `reference` None: skipped). Errors against the
     reference above `max_solver_error` (relative) are warnings in the result
-    (`solver_error_warnings`)."""
+    (`solver_error_warnings`). The runs go one after another, so that the adjoint's timing
+    shares the cores with nothing; the reference runs first when it was on disk (ready before
+    the adjoint, whose executable takes the longest to read: 0.3 s of a warm run hidden), else
+    last (a helper process traces and compiles it)."""
     inputs = chain.inputs(cpps)
     mode = resolve_mode(mode, len(input_names(chain)))
     scales = input_scales(inputs)
     checks = {}
     bumped_chain = chain.with_solver(BUMP_SOLVER)
-    _prefetch(chain, inputs, mode, bumped_chain if check_bumps else None, reference)
+    reference_first = _prefetch(chain, inputs, mode, bumped_chain if check_bumps else None, reference)
+    tight = _reference_jacobian(chain, inputs, reference, mode) if reference_first else None
     if check_bumps:
         adjoint = jacobian_function(chain, True, mode)
         comparison = compare_with_bumps(
             _cqa_shape, inputs, adjoint_fn=adjoint, bump_fn=cqa_function(bumped_chain),
             relative_step=BUMP_RELATIVE_STEP, step_floor=0.0, richardson=True, scales=scales, zero=1e-12,
-            repeats=repeats, bump_repeats=1, call=functools.partial(_call_bumps, adjoint, bumped_chain))
+            repeats=repeats, bump_repeats=0, call=functools.partial(_call_bumps, adjoint, bumped_chain))
         jac = named_jacobian(chain, inputs, comparison.value, comparison.adjoint, mode)
         seconds, compile_seconds = comparison.adjoint_seconds, comparison.adjoint_compile_seconds
         bumped = named_jacobian(chain, inputs, comparison.value, comparison.bumped, mode)
@@ -207,7 +220,7 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
         jac, timing = sensitivities(chain, inputs, mode=mode, repeats=repeats)
         seconds, compile_seconds = timing.median_seconds, timing.compile_seconds
     if reference is not None:
-        tight, _ = sensitivities(chain.with_solver(reference), inputs, mode=other_mode(mode), repeats=1, once=True)
+        tight = _reference_jacobian(chain, inputs, reference, mode) if tight is None else tight
         values, tight_values = np.asarray(jac.values), np.asarray(tight.values)
         checks.update(reference_rel_error=agreement(jac.columns(CPP_NAMES), tight.columns(CPP_NAMES)).max_rel_diff,
                       reference_rel_error_parameters=agreement(jac.matrix, tight.matrix, scales=scales).max_rel_diff,
