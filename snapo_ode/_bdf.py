@@ -209,6 +209,9 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
     """
     # What the functions close over (e.g. a model's parameters) as arguments, so that it is
     # differentiated too; the search's Newton iteration and decisions see it without gradient.
+    # Python numbers in `args` become arrays: the custom rules receive them as arrays, and the
+    # hoisted functions are called as they were converted.
+    args = jax.tree.map(lambda leaf: jnp.asarray(leaf) if eqx.is_array_like(leaf) else leaf, args)
     field, field_consts = _hoisted(vector_field, t0, y0, args)
     jacobian_fn, jacobian_consts = _hoisted(jacobian, t0, y0, args)
     timed_t0, timed_ts = t0, ts

@@ -120,10 +120,16 @@ class ExportedProgram:
 
     def __init__(self, fn: Callable, name: str, static, compiler_options: dict | None = None):
         self._fn, self._name = fn, name
-        self._jit = functools.partial(jax.jit, compiler_options=compiler_options)
+        self._compiler_options = compiler_options
         self._static_key = describe(static, values=True)
         self._packages = _packages(self._static_key) | {(getattr(fn, "__module__", None) or "snapo_ode").split(".")[0]}
         self._recent: dict = {}  # (structure, leaf ids, settings) -> (the leaves, kept alive so ids stay theirs; path)
+
+    def _jit(self, fn: Callable) -> Callable:
+        """`fn` jitted with the program's compiler options on a CPU; on another backend with
+        XLA's defaults (the options are chosen for XLA's CPU compiler: `QUICK_COMPILE`,
+        `ONCE_COMPILE`; an LLVM optimisation level would also slow a GPU's kernels)."""
+        return jax.jit(fn, compiler_options=self._compiler_options if jax.default_backend() == "cpu" else None)
 
     def _entry(self, args) -> pathlib.Path | None:
         try:
@@ -286,9 +292,10 @@ def exported(fn: Callable, *, name: str, static=None, compiler_options: dict | N
     - `name`: the entry's name (letters, digits, `-`), e.g. "pharma-jacobian".
     - `static`: what `fn` closes over and its program depends on (a model, settings): part of
       the key, array values included. Arguments need not be listed: they are keyed by structure.
-    - `compiler_options`: XLA options its executable is compiled with (`jax.jit`'s; they key the
-      executable in the compilation cache, not the entry), e.g. `QUICK_COMPILE`. Without a
-      cache directory or for `Unkeyable` arguments (`equinox.filter_jit`), XLA's defaults.
+    - `compiler_options`: XLA options its executable is compiled with on a CPU (`jax.jit`'s;
+      they key the executable in the compilation cache, not the entry), e.g. `QUICK_COMPILE`.
+      On another backend, without a cache directory or for `Unkeyable` arguments
+      (`equinox.filter_jit`), XLA's defaults.
 
     **Returns:** an `ExportedProgram`, a function of the same arguments (with `prefetch`).
     Without a compilation cache directory, or with an argument that cannot be keyed

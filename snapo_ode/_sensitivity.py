@@ -73,10 +73,12 @@ class Jacobian(NamedTuple):
     """`values`: shape (m,); `matrix`: d values / d inputs, shape (m, n) over the flattened
     inputs; `mode`: "reverse" (m vmapped reverse passes) or "forward" (n vmapped tangents);
     `rebuild`: maps a length-n vector back to the structure of the inputs; `input_names`
-    (n,) and `output_names` (m,): the names of the columns and rows."""
+    (n,) and `output_names` (m,): the names of the columns and rows. The arrays are JAX's as
+    `jacobian` returns them, or NumPy's where a caller keeps them on the host (the pharma
+    study's `named_jacobian`)."""
 
-    values: jax.Array
-    matrix: jax.Array
+    values: jax.Array | np.ndarray
+    matrix: jax.Array | np.ndarray
     mode: str
     rebuild: Callable
     input_names: tuple[str, ...]
@@ -87,7 +89,7 @@ class Jacobian(NamedTuple):
         inputs."""
         return self.rebuild(self.matrix[output if isinstance(output, int) else self.output_names.index(output)])
 
-    def columns(self, names: Sequence[str]) -> jax.Array:
+    def columns(self, names: Sequence[str]) -> jax.Array | np.ndarray:
         """The columns of the inputs `names`, shape (m, len(names)).
 
         **Raises:** `InputError` naming an input that is not a column."""

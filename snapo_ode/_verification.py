@@ -214,7 +214,7 @@ class BumpComparison(NamedTuple):
     bump_seconds: float | None
     bump_compile_seconds: float | None
     sequential_seconds: float | None
-    speedup: float
+    speedup: float | None
     forward_mode_seconds: float | None = None
     forward_mode_compile_seconds: float | None = None
     forward_mode_agreement: Agreement | None = None
@@ -268,9 +268,10 @@ def compare_with_bumps(fn: Callable, inputs, *args, select: Callable | None = No
       tolerances than the adjoint's, so that the bumps' truncation error is not the solver's.
     - `relative_step`, `step_floor`, `richardson`, `batch_size`: as in `central_differences`.
     - `scales`, `floor`, `zero`: as in `agreement`.
-    - `repeats` (adjoint) and `bump_repeats` (bumps; default `repeats`): timed calls after the
-      first; `bump_repeats=0`: the bumps are a check only, run once and not timed (the pharma
-      study's run for 0.17-0.41 s, a second time only to be timed).
+    - `repeats` (adjoint) and `bump_repeats` (bumps and forward mode; default `repeats`, at
+      least 1): timed calls after the first; `bump_repeats=0`: the bumps are a check only, run
+      once and not timed (the pharma study's run for 0.17-0.41 s, a second time only to be
+      timed); forward mode is then timed on one call after the first.
     - `sequential`: also time one revaluation and report 2n times its median.
     - `forward_mode`: also time forward mode on the same part (n tangents, vmapped, in chunks of
       `forward_batch_size` through `jax.lax.map` when given) and compare it with the adjoint.
@@ -290,7 +291,7 @@ def compare_with_bumps(fn: Callable, inputs, *args, select: Callable | None = No
     part, put_back = _selected(inputs, select)
     compared = gradient if select is None else select(gradient)
     reference = bump_fn or fn
-    bump_repeats = repeats if bump_repeats is None else bump_repeats
+    bump_repeats = max(repeats, 1) if bump_repeats is None else bump_repeats
 
     steps = jnp.asarray(bump_steps(flatten_inputs(part)[0], relative_step, step_floor))
     program = bumps_program(reference, select, richardson, batch_size)

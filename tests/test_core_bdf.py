@@ -102,6 +102,22 @@ def test_bdf_derivatives_through_a_field_that_closes_over_traced_integers(differ
     assert np.all(np.abs(derivative) > 1e-6)
 
 
+@pytest.mark.parametrize("differentiation", ["reverse", "forward"])
+def test_bdf_takes_python_numbers_in_args_under_jit_and_derivatives(differentiation):
+    """args = 1.5 (a Python float, as a model's float field is) under `jit` and through a
+    derivative: the solve of dy/dt = -k y against exp(-k t) and its derivative in y0."""
+    settings = BDF.replace(differentiation=differentiation)
+
+    def final(y0):
+        return settings.solve(lambda t, y, k: -k * y, 0.0, 1.0, y0, 1.5, saveat=diffrax.SaveAt(t1=True)).ys[-1]
+
+    y0 = jnp.array([1.0, 2.0])
+    differentiate = jax.jacrev if differentiation == "reverse" else jax.jacfwd
+    np.testing.assert_allclose(np.asarray(jax.jit(final)(y0)), np.exp(-1.5) * np.asarray(y0), rtol=1e-8)
+    np.testing.assert_allclose(np.asarray(jax.jit(differentiate(final))(y0)), np.exp(-1.5) * np.eye(2), rtol=1e-8,
+                               atol=1e-14)
+
+
 def test_bdf_batch_equals_single_solves():
     log_k1 = jnp.array([-0.5, 0.0, 0.7])
     batch = np.asarray(jax.jit(jax.vmap(solve_robertson))(log_k1))

@@ -75,6 +75,11 @@ _exported_check = exported(_values_and_jacobian, name="pharma-jacobian-check", c
 reference), compiled with `snapo_ode.ONCE_COMPILE`: half the compile, twice the run."""
 
 
+def _program(once: bool):
+    """The exported Jacobian program: for a Jacobian computed once (`_exported_check`), or not."""
+    return _exported_check if once else _exported_values_and_jacobian
+
+
 def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str, *, once: bool = False):
     """A jitted function of the inputs -> (CQAs (5,), Jacobian (5, n)), with the chain's adjoint
     set for `mode` ("reverse": 5 vmapped vjp passes; "forward": n vmapped jvp tangents). With
@@ -84,8 +89,8 @@ def jacobian_function(chain: PharmaChain, with_parameters: bool, mode: str, *, o
     (`snapo_ode.call_checked`: a failed solve raises `SolverFailed` here, on the host). With
     `once`, a program for a Jacobian computed once (`_exported_check`)."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
-    program = _exported_check if once else _exported_values_and_jacobian
-    return lambda inputs: call_checked(program, chain, inputs, with_parameters, mode, what="the chain's sensitivities")
+    return lambda inputs: call_checked(_program(once), chain, inputs, with_parameters, mode,
+                                       what="the chain's sensitivities")
 
 
 def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: bool, mode: str, *,
@@ -95,8 +100,7 @@ def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: 
     or with `elsewhere` in a helper process, and compiled in the background); whether it was on
     disk."""
     chain = chain.with_solver(chain.solver.replace(differentiation=mode))
-    program = _exported_check if once else _exported_values_and_jacobian
-    return prefetch_checked(program, chain, inputs, with_parameters, mode, elsewhere=elsewhere)
+    return prefetch_checked(_program(once), chain, inputs, with_parameters, mode, elsewhere=elsewhere)
 
 
 def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mesh=None):

@@ -147,7 +147,7 @@ def _bumped_cqas(bumped_chain: PharmaChain, inputs: ChainInputs, args, steps):
 
 _exported_bumps = exported(_bumped_cqas, name="pharma-bumps", compiler_options=ONCE_COMPILE)
 """The central differences' program, exported (keyed by the bumped chain and the steps' shape), so
-that a second process does not trace it; defined here, so that a helper process can trace it."""
+that a second process does not trace it."""
 
 
 def _call_bumps(adjoint, bumped_chain: PharmaChain, program, *args):
@@ -193,9 +193,10 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     tolerances by the other mode (`other_mode`; `reference` None: skipped). Errors against the
     reference above `max_solver_error` (relative) are warnings in the result
     (`solver_error_warnings`). The runs go one after another, so that the adjoint's timing
-    shares the cores with nothing; the reference runs first when it was on disk (ready before
-    the adjoint, whose executable takes the longest to read: 0.3 s of a warm run hidden), else
-    last (a helper process traces and compiles it)."""
+    shares the cores with no other run (in a first process the reference's helper may still be
+    compiling beside it, at a lower priority); the reference runs first when it was on disk
+    (ready before the adjoint, whose executable takes the longest to read: 0.3 s of a warm run
+    hidden), else last (a helper process traces and compiles it)."""
     inputs = chain.inputs(cpps)
     mode = resolve_mode(mode, len(input_names(chain)))
     scales = input_scales(inputs)
