@@ -65,8 +65,8 @@ ONCE_COMPILE = {**QUICK_COMPILE, "xla_backend_optimization_level": 0}
 """XLA options for a program a command runs once (a check: a reference, central differences):
 `QUICK_COMPILE` with LLVM's optimisation off. Measured (2-core CPU, 2026-11-26, each compile in a
 new process, side by side against the elemental emitters at level 2): the pharma reference's
-compile (the BDF's) 7.2 -> 4.1 CPU-s and its run 94 -> 332 ms; the bumps' 4.9 -> 2.2 CPU-s and
-their run 0.17 -> 0.41 s; the adjoint's 10.1 -> 5.2 CPU-s, but its run 11.9 -> 22.8 ms, so a
+compile 5.0 -> 2.9 CPU-s and its run 0.13 -> 0.27 s; the bumps' 4.9 -> 2.2 CPU-s and their run
+0.17 -> 0.41 s; the adjoint's 10.1 -> 5.2 CPU-s, but its run 11.9 -> 22.8 ms, so a
 program that is timed or run many times keeps `QUICK_COMPILE`."""
 
 _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deserialised program

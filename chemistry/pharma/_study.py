@@ -20,17 +20,15 @@ from ._sensitivities import (
     cqa_function, input_names, input_scales, jacobian_function, named_jacobian, normalized, parameter_names,
     prefetch_jacobian, resolve_mode)
 
-REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="bdf", nonstiff_solver="kvaerno5",
+REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="kvaerno5", nonstiff_solver="kvaerno5",
                                  max_steps=20000)
-"""The reference Jacobian's solver: a different method on every unit from the default (Rodas5
-and Tsit5), so that `reference_rel_error` checks the method and the step: the BDF (multistep) on
-R1 and R2, the ESDIRK Kvaerno5 on the crystallizer and the dryer. `sensitivity_study`
-differentiates it by the other mode from the study's (`other_mode`). Kvaerno5 on every unit was
-the reference until 2026-11-26: the two agree to 1e-9 (tested; each ~1e-9 from both at rtol
-1e-13, 250x below the study's errors at the default rtol 1e-8), and the BDF's forward-mode
-program traces in 3.3 s against Kvaerno5's 4.9 s (alone, 2-core CPU), the cold study's last
-program to be ready."""
-REFERENCE_METHODS = "the BDF on R1 and R2, Kvaerno5 on the crystallizer and the dryer"
+"""The reference Jacobian's solver: a different method (ESDIRK Kvaerno5 on every unit) from the
+default (Rodas5 and Tsit5), so that `reference_rel_error` checks the method and the step.
+`sensitivity_study` differentiates it by the other mode from the study's (`other_mode`). The BDF
+on R1 and R2 (a multistep family) agrees with it to 1e-9 (tested) and traces in 3.3 s against
+4.9 s, but measured no faster cold (the BDF's 20.3-23.6 s against 20.3-23.0 s, taking turns) and
+is less accurate at the same rtol (1.1e-9 against 4.3e-10, from both at rtol 1e-13): not taken."""
+REFERENCE_METHODS = "Kvaerno5 on every unit"
 """`REFERENCE`'s methods, as notes and reports name them."""
 BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
 """The central differences' solver: an error far below their step."""
@@ -42,8 +40,8 @@ stays far below 1e-5)."""
 def other_mode(mode: str) -> str:
     """The reference's mode for a study in `mode`: the other one, so that the reference also
     checks the study's derivative. For the default reverse study that is forward mode, which
-    also traced in half the time of reverse mode through Kvaerno5's root finder (5 s against
-    10.5 s, the critical path of a cold `snapo pharma sensitivities` then) and ran in about the
+    also traces in half the time of reverse mode through Kvaerno5's root finder (5 s against
+    10.5 s, the critical path of a cold `snapo pharma sensitivities` then) and runs in about the
     same (0.16-0.24 s against 0.18 s)."""
     return "forward" if mode == "reverse" else "reverse"
 
