@@ -148,13 +148,15 @@ def _initial_differences(field, t0, y0, args, field_consts, h):
     return jnp.zeros((ROWS, y0.size), y0.dtype).at[0].set(y0).at[1].set(h * f0)
 
 
-def _searched(field, jacobian, options, t0, t1, h, ts, y0, args, field_consts, jacobian_consts, *, record):
-    """`_search` of the model from y0, values only (optionally recording its steps)."""
+def _searched(field, jacobian, options, t0, t1, h, ts, y0, args, field_consts, jacobian_consts, *, record=False,
+              corrector=None):
+    """`_search` of the model from y0: values only (optionally recording its steps), or with
+    forward-mode derivatives through `corrector`."""
     rtol, atol, max_steps, _ = options
     rate, jacobian_ = _frozen(field, jacobian, args, field_consts, jacobian_consts)
     differences = _initial_differences(field, t0, y0, args, field_consts, h)
     return _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol, max_steps=max_steps,
-                   record=record)
+                   corrector=corrector, record=record)
 
 
 @functools.partial(jax.custom_vjp, nondiff_argnums=(0, 1, 2))
@@ -217,20 +219,20 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
     timed_t0, timed_ts = t0, ts
     t0, t1, ts = jax.lax.stop_gradient((t0, t1, ts))
     y0 = _timed(field, -1.0, jnp.atleast_1d(timed_t0), y0[None], args, field_consts)[0]
-    rate, jacobian_ = _frozen(field, jacobian_fn, args, field_consts, jacobian_consts)
+    rate, _ = _frozen(field, jacobian_fn, args, field_consts, jacobian_consts)
     frozen_y0 = jax.lax.stop_gradient(y0)
     h = jax.lax.stop_gradient(_initial_step(rate, t0, t1, frozen_y0, rate(t0, frozen_y0), rtol, atol))
+    options = (rtol, atol, max_steps, checkpoints or max_steps)
     if reverse:
-        saved, stats, status = _reverse_solve(field, jacobian_fn, (rtol, atol, max_steps, checkpoints or max_steps),
-                                              t0, t1, h, ts, y0, args, field_consts, jacobian_consts)
+        saved, stats, status = _reverse_solve(field, jacobian_fn, options, t0, t1, h, ts, y0, args, field_consts,
+                                              jacobian_consts)
     else:
         def corrector(t, c, increment, predicted, psi):
             return _corrected(field, jacobian_fn, t, c, increment, predicted, psi, args, field_consts,
                               jacobian_consts)
 
-        differences = _initial_differences(field, t0, y0, args, field_consts, h)
-        saved, _, stats, status = _search(rate, jacobian_, t0, t1, differences, h, ts, rtol=rtol, atol=atol,
-                                          max_steps=max_steps, corrector=corrector)
+        saved, _, stats, status = _searched(field, jacobian_fn, options, t0, t1, h, ts, y0, args, field_consts,
+                                            jacobian_consts, corrector=corrector)
     # The status is 3 where the (traced) times are out of order: `SolverSettings` checks concrete
     # ones before the solve.
     status = jnp.where((t1 > t0) & jnp.all((ts >= t0) & (ts <= t1)), status, 3)
