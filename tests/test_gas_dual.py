@@ -69,18 +69,91 @@ def test_dual_equals_lsmc_and_intrinsic_lp_at_zero_volatility(basis):
     penalty = penalties.fit_penalty(fit, inputs, scene, grid, prices, basis, state_degree=2)
     bound = dual.dual_bound(penalty, inputs, scene, grid, prices)
     lsmc = run_lsmc_policy(fit, inputs, scene, grid, prices).value
-    assert bound.bounds_continuous_policies
+    assert bound.grid.relaxation == 0.0  # bdj's rates are whole steps: the relaxation is exact
     np.testing.assert_allclose(bound.values, lp.value, rtol=1e-12)
     np.testing.assert_allclose(lsmc, lp.value, rtol=1e-12)
 
 
-def test_only_whole_step_facilities_without_ratchets_bound_continuous_policies():
+def test_the_relaxed_grid_never_tightens_a_rate_and_is_exact_on_whole_steps():
     scene = gs.stochastic_scene()
-    assert dual.bounds_continuous_policies(bdj_inputs(), scene, inventory_grid(bdj_inputs(), scene, 101))
-    # 250,000 / 40 = 6,250 a step: the 2,500 injection is not a whole step.
-    assert not dual.bounds_continuous_policies(bdj_inputs(), scene, inventory_grid(bdj_inputs(), scene, 41))
-    sample = gs.make_inputs(gs.sample_facility(), gs.sample_curve())  # ratchets
-    assert not dual.bounds_continuous_policies(sample, scene, inventory_grid(sample, scene, 1001))
+    exact = dual.relaxed_grid(bdj_inputs(), scene)
+    assert (exact.nodes, exact.relaxation, set(exact.max_in_steps), set(exact.max_out_steps)) == (101, 0.0, {1}, {3})
+    inputs = ratchet_inputs(0.0)
+    for nodes in (51, 137, 400):
+        relaxed = dual.relaxed_grid(inputs, scene, nodes)
+        # Every fill inside the two cells beside a level: the relaxed rate is at least the exact one there.
+        fill = np.linspace(0, 1, 20_001)
+        level = np.clip(np.rint(fill * (nodes - 1)).astype(int), 0, nodes - 1)
+        kept = 1 - float(inputs.fuel_loss)
+        exact_in = kept * float(inputs.max_injection) * np.interp(fill, *np.asarray(inputs.injection_ratchet).T)
+        exact_out = float(inputs.max_withdrawal) * np.interp(fill, *np.asarray(inputs.withdrawal_ratchet).T)
+        assert np.all(np.asarray(relaxed.max_in_steps)[level] * relaxed.spacing >= exact_in * (1 - 1e-12))
+        assert np.all(np.asarray(relaxed.max_out_steps)[level] * relaxed.spacing >= exact_out * (1 - 1e-12))
+        assert relaxed.relaxation > 0
+
+
+def ratchet_inputs(volatility, days=60):
+    """A facility with everything that rounds flexibility away on a grid: ratchets in both
+    directions, 0.5% fuel loss, costs and a 4% rate, rates that are no whole steps, an initial
+    inventory off the grid, on a 60-day winter curve with a weekend discount."""
+    day = np.arange(days)
+    curve = 3.0 + 0.5 * np.cos(2 * np.pi * (day - 40) / days) - 0.1 * (day % 7 >= 5)
+    facility = dict(capacity=500_000.0, initial_inventory=123_457.0, terminal_inventory_min=100_000.0,
+                    max_injection=14_000.0, max_withdrawal=23_000.0,
+                    injection_ratchet=[[0.0, 1.0], [0.6, 0.9], [1.0, 0.5]],
+                    withdrawal_ratchet=[[0.0, 0.4], [0.3, 1.0], [1.0, 1.0]],
+                    fuel_loss=0.005, injection_cost=0.01, withdrawal_cost=0.01, rate=0.04)
+    return gs.make_inputs(facility, curve, volatility=volatility, mean_reversion=5.0)
+
+
+def test_on_ratchets_fuel_costs_and_discounting_the_bound_bounds_every_policy_and_lsmc_beats_intrinsic():
+    # Before: LSMC's grid rounded rates down (20% below the intrinsic value on such a facility)
+    # and the grid's bound bounded grid policies only (it fell below the intrinsic value).
+    from finance.gas_storage._certificate import duality_gaps, intrinsic_schedule
+
+    inputs = ratchet_inputs(0.8)
+    scene = gs.stochastic_scene()
+    lp = gs.solve_intrinsic(inputs, gs.deterministic_scene())
+    grid = inventory_grid(inputs, scene, 51)
+    eval_shocks = shocks(inputs, 400, 2)
+    eval_prices = spot_prices(inputs, eval_shocks)[0]
+    fit = fit_lsmc(inputs, scene, grid, spot_prices(inputs, shocks(inputs, 400, 1))[0], 3)
+    network = gs.make_policy(scene, inputs, key=jax.random.key(5), spot_scale=0.3)
+    policies = {"lsmc": run_lsmc_policy(fit, inputs, scene, grid, eval_prices),
+                "network": gs.simulate(network, inputs, scene, sharpness=None, shocks=eval_shocks),
+                "intrinsic": intrinsic_schedule(inputs, scene, lp, eval_prices)}
+    out = duality_gaps(inputs, scene, grid, eval_shocks, policies, lattice_points=60, dual_nodes=151)
+    warnings = out["warnings"]
+    assert not any(w.startswith("dual bound not certified") or w.startswith("dual bound ") and "lies below" in w
+                   for w in warnings), warnings
+    # Only the untrained network is worth less than the intrinsic schedule, and it is said.
+    assert [w.split(" ")[0] for w in warnings if "below the intrinsic" in w] == ["network"], warnings
+    # The intrinsic schedule's control-variate value is the LP's value up to Monte Carlo error.
+    assert abs(out["intrinsic_value_control_variate"] - lp.value) <= 4 * out["intrinsic_value_control_variate_se"]
+    for name in ("lsmc", "network", "intrinsic", "lattice"):
+        # Path by path (certify checked it; the gap's mean is its share of the bound) ...
+        assert out[f"{name}_gap"] >= 0
+        # ... and in the mean, above the plain value too.
+        value = np.mean(policies[name].value) if name in policies else out["lattice_out_of_sample"]
+        assert out["dual_upper_bound"] >= value
+    assert out["dual_upper_bound"] >= lp.value
+    lsmc = np.asarray(policies["lsmc"].value)
+    assert lsmc.mean() >= lp.value - 3 * lsmc.std() / np.sqrt(lsmc.size)
+    assert gs.constraint_violation(policies["lsmc"], inputs, 1 - float(inputs.fuel_loss)) <= 1e-6 * 500_000
+
+
+def test_a_bound_below_a_policy_is_refused_and_a_policy_below_intrinsic_is_warned():
+    from finance.gas_storage._certificate import certify
+
+    upper = np.full(100, 10.0) + np.linspace(0, 1, 100)
+    fine = {"intrinsic": (upper - 1.0, upper - 1.0)}
+    out = {"dual_upper_bound": 10.5, "snapo_gap": 0.1}
+    assert certify(dict(out), upper, fine, 0.0) == []
+    broken = dict(out)
+    warnings = certify(broken, upper, {**fine, "snapo": (upper + 0.5, upper + 0.5)}, 0.0)
+    assert "not certified" in warnings[0] and broken["dual_upper_bound"] is None and broken["snapo_gap"] is None
+    low = certify(dict(out), upper, {**fine, "lsmc": (upper - 2.0, upper - 2.0)}, 0.02)
+    assert any("valid but loose" in w for w in low) and any("lsmc" in w and "intrinsic" in w for w in low)
 
 
 @pytest.fixture(scope="module")

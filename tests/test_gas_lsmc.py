@@ -48,17 +48,21 @@ def test_lsmc_at_zero_volatility_equals_the_intrinsic_lp_on_an_exact_grid():
     assert result["lsmc_out_of_sample"] == pytest.approx(lp.value, rel=1e-10)
 
 
-def test_lsmc_at_zero_volatility_is_below_and_near_the_lp_with_every_effect():
+def test_lsmc_at_zero_volatility_reaches_the_lp_with_every_effect():
     # The sample facility: ratchets, fuel loss, costs, discounting; rates are not whole steps.
+    # Decisions among the levels, the ends of the exact feasible interval and holding keep the
+    # whole flexibility: the rule reaches the LP (rounding rates down to whole steps lost 3%).
     inputs = gs.make_inputs(gs.sample_facility(), gs.sample_curve())
     scene = gs.stochastic_scene()
     lp = gs.solve_intrinsic(inputs, gs.deterministic_scene())
-    grid = inventory_grid(inputs, scene, 1001)
-    fit = fit_lsmc(inputs, scene, grid, inputs.forward_curve[None], 2)
-    schedule = run_lsmc_policy(fit, inputs, scene, grid, inputs.forward_curve[None])
-    assert float(fit.values[0]) == pytest.approx(float(schedule.value[0]), rel=1e-12)
-    assert 0.97 * lp.value <= float(schedule.value[0]) <= lp.value * (1 + 1e-9)
-    assert constraint_violation(schedule, inputs, 1 - float(inputs.fuel_loss)) <= 1e-6 * float(inputs.capacity)
+    for nodes in (101, 1001):
+        grid = inventory_grid(inputs, scene, nodes)
+        fit = fit_lsmc(inputs, scene, grid, inputs.forward_curve[None], 2)
+        schedule = run_lsmc_policy(fit, inputs, scene, grid, inputs.forward_curve[None])
+        assert lp.value * (1 - 1e-4) <= float(schedule.value[0]) <= lp.value * (1 + 1e-9), nodes
+        # In sample, realised values are interpolated between levels: an estimate, not a policy's value.
+        assert float(fit.values[0]) == pytest.approx(lp.value, rel=1e-2)
+        assert constraint_violation(schedule, inputs, 1 - float(inputs.fuel_loss)) <= 1e-6 * float(inputs.capacity)
 
 
 def test_lsmc_is_pathwise_below_perfect_foresight_and_out_of_sample_near_in_sample():
@@ -107,7 +111,6 @@ def test_split_policy_trades_bang_bang_when_hard_and_smoothly_when_training():
 
 @pytest.mark.parametrize("nodes, degree, message", [
     (1, 3, r"nodes = 1; allowed: a whole number in \[2, 100000\]"),
-    (100, 3, r"initial_inventory = 100000 is not on the grid of nodes = 100"),
     (101, -1, r"degree = -1; allowed: a whole number in \[0, 12\]"),
 ])
 def test_lsmc_bad_input_names_the_field(nodes, degree, message):

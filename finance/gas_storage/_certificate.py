@@ -1,35 +1,60 @@
 """How far from optimal, and at what cost: the dual upper bound on the evaluation paths with
-every policy's duality gap, and the forward-curve deltas of LSMC (pathwise, one reverse pass)
-with the three ways of getting a value and its 365 deltas timed side by side.
+every policy's duality gap, the checks that keep a bound a bound, and the forward-curve deltas
+of LSMC (pathwise, one reverse pass) with the three ways of getting a value and its deltas timed
+side by side.
 
 The penalty of the bound is the factor lattice's (`_lattice.py`: the tightest measured, exact
 conditional means) whenever the spot is random; at zero volatility it is none (the bound is then
 perfect foresight, which is the intrinsic value there). Each policy's lower bound is its hard
 value with the penalty as a control variate (cash - penalty: the same mean for a
 non-anticipative policy, far smaller variance), so that (bound - lower) >= 0 holds path by path
-and its mean has a small standard error; the plain value is reported beside it.
+and its mean has a small standard error; the plain value is reported beside it. The intrinsic
+schedule is one of the policies: it is non-anticipative and worth the intrinsic value in
+expectation (E[spot] = forward), so no bound may lie below it.
+
+Checks (`certify`): a bound that falls below any policy's cash less penalty on any path is not
+certified (its fields become null); a bound below a policy's plain value by more than 3 paired
+standard errors, a policy below the intrinsic value by more than 3, and a relaxation that raised
+the rates by more than `LOOSE_RELAXATION`, each give a warning.
 """
 
 import numpy as np
 
 from snapo_ode import Scene, time_function, time_once
 
-from ._dual import dual_bound, schedule_penalty
+from ._dual import dual_bound, relaxed_grid, schedule_penalty
 from ._inputs import StorageInputs
 from ._lattice import LatticePenalty, run_lattice_policy, solve_factor_lattice
+from ._lp import IntrinsicSolution
 from ._lsmc import InventoryGrid, LSMCFit
 from ._lsmc_deltas import lsmc_value_and_deltas
-from ._model import Schedule, spot_prices
+from ._model import Schedule, flows_and_cash, spot_prices
 from ._results import standard_error
+
+LOOSE_RELAXATION = 0.01  # rates raised by more than this share make the bound's warning "valid but loose"
+PATHWISE_TOLERANCE = 1e-9  # relative: round-off of the path problem's sums
+
+
+def intrinsic_schedule(inputs: StorageInputs, scene: Scene, intrinsic: IntrinsicSolution, prices) -> Schedule:
+    """The intrinsic LP's schedule traded at the spot of each path (`prices`, (paths, T)): a
+    non-anticipative policy worth the intrinsic value in expectation."""
+    net = np.diff(intrinsic.inventory)
+    day = np.arange(inputs.n_days)
+    injection, withdrawal, cash = flows_and_cash(inputs, scene, net, prices, day, None)
+    paths = prices.shape[0]
+    return Schedule(cash.sum(-1), np.broadcast_to(injection, prices.shape), np.broadcast_to(withdrawal, prices.shape),
+                    np.broadcast_to(intrinsic.inventory, (paths, inputs.n_days + 1)))
 
 
 def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_shocks, policies: dict[str, Schedule],
-                 *, lattice_points: int = 200) -> dict:
+                 *, lattice_points: int = 200, dual_nodes: int | None = None) -> dict:
     """The dual bound on the paths of `eval_shocks` and, for each named policy (its hard schedule
     on those paths) and the lattice's own rule, its value with the penalty as a control variate
     and its gap (bound - value) / bound, each with its standard error. Keys: `dual_upper_bound`,
-    `dual_upper_bound_se`, `dual_penalty`, `dual_bounds_continuous_policies`, `dual_seconds`,
-    and per policy `NAME_value_control_variate(_se)`, `NAME_gap`, `NAME_gap_se`."""
+    `dual_upper_bound_se`, `dual_penalty`, `dual_bounds_continuous_policies`, `dual_grid_nodes`,
+    `dual_relaxation`, `dual_seconds`, per policy `NAME_value_control_variate(_se)`, `NAME_gap`,
+    `NAME_gap_se`, and `warnings` (a list of sentences; the bound's fields are None when a
+    pathwise check failed)."""
     prices, _ = spot_prices(inputs, eval_shocks)
     penalty, kind = None, "none: zero volatility, the bound is perfect foresight"
     lattice_seconds = 0.0
@@ -37,15 +62,18 @@ def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_
         lattice_seconds, lattice = time_once(solve_factor_lattice, inputs, scene, grid, points=lattice_points)
         penalty, kind = LatticePenalty(lattice), f"factor lattice ({lattice_points} levels of the OU factor)"
         policies = {**policies, "lattice": run_lattice_policy(lattice, inputs, scene, grid, prices)}
-    seconds, bound = time_once(dual_bound, penalty, inputs, scene, grid, prices)
+    relaxed = relaxed_grid(inputs, scene, dual_nodes, paths=prices.shape[0])
+    seconds, bound = time_once(dual_bound, penalty, inputs, scene, grid, prices, relaxed=relaxed)
     upper = np.asarray(bound.values)
     out = {"dual_upper_bound": float(upper.mean()), "dual_upper_bound_se": standard_error(upper),
-           "dual_penalty": kind, "dual_bounds_continuous_policies": bound.bounds_continuous_policies,
-           "dual_seconds": seconds + lattice_seconds}
+           "dual_penalty": kind, "dual_bounds_continuous_policies": True, "dual_grid_nodes": relaxed.nodes,
+           "dual_relaxation": relaxed.relaxation, "dual_seconds": seconds + lattice_seconds}
+    lowers = {}
     for name, schedule in policies.items():
         cash = np.asarray(schedule.value)
         paid = 0.0 if penalty is None else np.asarray(schedule_penalty(penalty, inputs, grid, prices,
-                                                                       schedule.inventory))
+                                                                       schedule.inventory, relaxed))
+        lowers[name] = (cash, cash - paid)
         lower = cash - paid
         out.update({f"{name}_value_control_variate": float(lower.mean()),
                     f"{name}_value_control_variate_se": standard_error(lower),
@@ -54,16 +82,58 @@ def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_
     if "lattice" in policies:
         out["lattice_out_of_sample"] = float(np.mean(policies["lattice"].value))
         out["lattice_se"] = standard_error(policies["lattice"].value)
-    return out
+    return {**out, "warnings": certify(out, upper, lowers, relaxed.relaxation)}
+
+
+def certify(out: dict, upper: np.ndarray, lowers: dict[str, tuple], relaxation: float) -> list[str]:
+    """The checks of the module docstring on the bound's path values `upper` and each policy's
+    (cash, cash - penalty) per path; clears the bound's fields in `out` where it fails a pathwise
+    check. Returns the warnings."""
+    warnings = []
+    scale = np.abs(upper) + 1.0
+    for name, (cash, lower) in lowers.items():
+        below = upper < lower - PATHWISE_TOLERANCE * scale
+        if np.any(below):
+            worst = float(np.max(lower - upper))
+            warnings.append(f"dual bound not certified: below {name}'s cash less penalty on {int(below.sum())} of "
+                            f"{upper.size} paths (by up to {worst:,.2f}); its fields are null")
+            for key in [key for key in out if key.startswith("dual_upper_bound") or key.endswith("_gap")
+                        or key.endswith("_gap_se")]:
+                out[key] = None
+            return warnings + _mean_checks(None, lowers)
+        difference = upper - cash
+        if difference.mean() < -3 * standard_error(difference):
+            warnings.append(f"dual bound {upper.mean():,.0f} lies below {name}'s value {cash.mean():,.0f} by more "
+                            f"than 3 paired standard errors")
+    if relaxation > LOOSE_RELAXATION:
+        warnings.append(f"dual bound valid but loose: to be solved on a grid its rates were raised by up to "
+                        f"{relaxation:.1%} (rates that are not whole steps of any affordable grid, or ratchets); "
+                        "gaps against it overstate the distance to the optimum")
+    return warnings + _mean_checks(upper, lowers)
+
+
+def _mean_checks(upper, lowers: dict[str, tuple]) -> list[str]:
+    """Policies worth less than the intrinsic schedule on the same paths (paired, 3 SE)."""
+    if "intrinsic" not in lowers:
+        return []
+    warnings = []
+    reference = lowers["intrinsic"][0]
+    for name, (cash, _) in lowers.items():
+        difference = cash - reference
+        if name != "intrinsic" and difference.mean() < -3 * standard_error(difference):
+            warnings.append(f"{name} ({cash.mean():,.0f}) lies below the intrinsic schedule on the same paths "
+                            f"({reference.mean():,.0f}) by more than 3 paired standard errors: a lower bound below "
+                            "the intrinsic value")
+    return warnings
 
 
 def lsmc_deltas(fit: LSMCFit, inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_shocks,
                 fit_seconds: float, eval_seconds: float) -> dict:
-    """LSMC's 365 pathwise deltas on the evaluation paths (one reverse pass, the fitted rule
-    frozen), and the wall time of value + deltas by LSMC with them (`lsmc_plus_deltas_seconds`:
+    """LSMC's pathwise deltas on the evaluation paths, one per day (one reverse pass, the fitted
+    rule frozen), and the wall time of value + deltas by LSMC with them (`lsmc_plus_deltas_seconds`:
     the fit and the one pass) and with central bumps of the whole valuation
     (`lsmc_plus_bumps_seconds`: 2T refits and revaluations at the measured `fit_seconds` +
-    `eval_seconds`, an estimate: 730 valuations were not run)."""
+    `eval_seconds`, an estimate: 2T valuations were not run)."""
     timing, (_, deltas) = time_function(lsmc_value_and_deltas, fit, inputs, scene, grid, eval_shocks, repeats=1)
     return {"lsmc_pathwise_deltas": np.asarray(deltas).tolist(), "lsmc_deltas_seconds": timing.median_seconds,
             "lsmc_plus_deltas_seconds": fit_seconds + timing.median_seconds,

@@ -1,10 +1,11 @@
-"""`snapo gas`, `snapo demo`, `snapo bench gas` and `snapo bench gas-lsmc`.
+"""`snapo gas`, `snapo demo`, `snapo bench gas`, `snapo bench gas-lsmc` and `snapo bench gas-family`.
 
 Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` stays quick.
 """
 
 import argparse
 import pathlib
+import sys
 
 from snapo_ode.cli import add_training_options
 
@@ -90,6 +91,8 @@ def _write(result, policy, json_path: pathlib.Path) -> int:
     written = result.publish(json_path, {".policy.eqx": storage_policy_bytes(policy)})
     print(result.summary())
     print(f"  written: {', '.join(map(str, written))}")
+    for warning in getattr(result, "warnings", []):
+        print(f"snapo: warning: {warning}", file=sys.stderr)
     return 0
 
 
@@ -135,6 +138,14 @@ def run_bench_lsmc(args) -> int:
     return 0
 
 
+def run_bench_family(args) -> int:
+    from ._bench_family import run_family_benchmark
+
+    run_family_benchmark(args.out, paths=args.paths, cases=args.cases, seed=args.seed, train_steps=args.train_steps,
+                         nodes=args.lsmc_nodes, volatilities=tuple(args.volatility), progress=args.progress)
+    return 0
+
+
 def smoothing_accuracy(args):
     from ._accuracy import smoothing_study
 
@@ -148,7 +159,7 @@ def monte_carlo_accuracy(args):
 
 
 def register_gas(cli) -> None:
-    """Add `snapo gas`, `snapo demo`, `snapo bench gas` and `snapo bench gas-lsmc`."""
+    """Add `snapo gas`, `snapo demo`, `snapo bench gas`, `snapo bench gas-lsmc` and `snapo bench gas-family`."""
     gas = cli.command("gas", "train a storage policy, value it hard and smooth against the intrinsic LP, "
                       "and take every forward-curve delta from one reverse pass (the policy is saved beside "
                       "the JSON)")
@@ -173,5 +184,15 @@ def register_gas(cli) -> None:
     versus.add_argument("--lsmc-nodes", type=int, default=101)
     versus.add_argument("--lsmc-degree", type=int, default=3)
     versus.set_defaults(handler=run_bench_lsmc)
+    family = cli.bench("gas-family", "SNAPO, LSMC, the dual bound and the intrinsic LP on a generated family of "
+                       "curves (weekly shapes, holidays, spikes, seasonal, flat, contango, backwardation) and "
+                       "facilities (fast, slow, ratchets, fuel and costs, everything), the same fresh paths")
+    family.add_argument("--paths", type=int, default=10_000, help="LSMC fitting paths and evaluation paths")
+    family.add_argument("--cases", type=int, help="the first CASES of the family (default: all 14)")
+    family.add_argument("--volatility", nargs="+", choices=["low", "high"], default=["low", "high"],
+                        help="B&dJ's volatilities to run (mean reversion 0.05/day)")
+    family.add_argument("--train-steps", type=int, help="SNAPO training steps (default: the head's)")
+    family.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC levels at least (more where a flow needs)")
+    family.set_defaults(handler=run_bench_family)
     cli.accuracy("smoothing", smoothing_accuracy)
     cli.accuracy("monte-carlo", monte_carlo_accuracy)

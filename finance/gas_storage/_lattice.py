@@ -10,8 +10,9 @@ expectation under a normal N(mu, s^2) is exact and linear in the level values:
     E[V~(Y)] = V_0 + sum_g (m_g - m_{g-1}) [(mu - x_g) N(d_g) + s n(d_g)],   d_g = (mu - x_g) / s,
 
 with m_g the slope of V~ right of x_g (m_{-1} = m_{G-1} = 0). Backward over days,
-C_t(n', x_g) = E[V~_{t+1}(n', a x_g + s eps)] and V_t(n, x_g) = max_k [cash_t(k, S_t(x_g)) +
-C_t(n + k, x_g)]. The lattice value at X_0 = 0 is an approximation (discretisation), not a bound;
+C_t(n', x_g) = E[V~_{t+1}(n', a x_g + s eps)] and V_t(n, x_g) = max over the candidate inventories y
+of `_lsmc.candidate_inventories` (continuous: the exact rates, ratchets and fuel loss included) of
+[cash_t(y - V_n, S_t(x_g)) + C_t(y, x_g)], C_t interpolated linearly between levels. The lattice value at X_0 = 0 is an approximation (discretisation), not a bound;
 its decision rule, run on paths with C_t interpolated at the path's X_t, is a non-anticipative
 policy (a lower bound out of sample); and w_t(n') = V~_{t+1}(n', X_{t+1}) - E_t V~_{t+1}(n',
 X_{t+1}), with the expectation above (exact), is a penalty for `_dual.py`. Specific to the
@@ -29,15 +30,15 @@ from jax.scipy.stats import norm
 from snapo_ode import InputError, Scene, check_count, check_range
 
 from ._inputs import StorageInputs
-from ._lsmc import InventoryGrid, _move_cash
-from ._model import Schedule, factor_transition, kept_fraction
+from ._lsmc import InventoryGrid, level_decisions, run_continuation_policy, start_value
+from ._model import Schedule, factor_transition, inventory_floor
 from ._penalty import AbstractPenalty
 
 
 class FactorLattice(NamedTuple):
     """`factor`: the levels x_g, shape (G,); `continuation`: C_t(n', x_g), shape (T, G, N);
-    `values`: V_t(n, x_g), shape (T, G, N) [$] (0 at nodes from which the terminal requirement
-    cannot be met); `value`: V_0 at the start node and X_0 = 0 [$]."""
+    `values`: V_t(n, x_g), shape (T, G, N) [$] (below the floor, the value of the forced largest
+    injection); `value`: V_0 at the initial inventory and X_0 = 0 [$]."""
 
     factor: jax.Array
     continuation: jax.Array
@@ -96,51 +97,35 @@ def _solve(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, points: int
     # E[V~_{t+1}(a x_g + s eps)] = weights @ V_{t+1}, the same (G, G) matrix every day.
     weights = jnp.zeros(points).at[0].set(1.0) + _calls(factor, transition.decay * factor, transition.step_sd) @ _kinks(
         factor)
-    targets = jnp.asarray(grid.targets)
 
     def back(later, today):
-        day, forward, variance, allowed = today
+        day, forward, variance, floor_tomorrow = today
         continuation = weights @ later
-        cash = _move_cash(inputs, scene, grid, forward * jnp.exp(factor - variance / 2), day)[:, None, :]
-        score = jnp.where(allowed[None], cash + continuation[:, targets], -jnp.inf)
-        values = jnp.max(score, axis=-1)
-        values = jnp.where(jnp.isfinite(values), values, 0.0)  # no move: never reached
+        _, values = level_decisions(inputs, scene, grid, forward * jnp.exp(factor - variance / 2), day,
+                                    floor_tomorrow, continuation)
         return values, (continuation, values)
 
-    nodes = targets.shape[0]
     _, (continuation, values) = jax.lax.scan(
-        back, jnp.zeros((points, nodes)),
-        (jnp.arange(inputs.n_days), inputs.forward_curve, transition.variance, jnp.asarray(grid.allowed)),
+        back, jnp.zeros((points, grid.nodes)),
+        (jnp.arange(inputs.n_days), inputs.forward_curve, transition.variance, inventory_floor(inputs, scene, None)[1:]),
         reverse=True)
-    value = _interpolate(factor, values[0], jnp.zeros(1))[0, grid.start_node]
+    value = start_value(inputs, grid, _interpolate(factor, values[0], jnp.zeros(1)))[0]
     return FactorLattice(factor, continuation, values, value)
 
 
 @eqx.filter_jit
 def run_lattice_policy(lattice: FactorLattice, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
                        prices: jax.Array) -> Schedule:
-    """The lattice's decision rule on `prices` (paths, T): each day the move maximising today's
-    cash plus C_t interpolated at the path's X_t. Returns the hard schedule, as
-    `run_lsmc_policy` does."""
-    targets = jnp.asarray(grid.targets)
-    net_moves = jnp.asarray(grid.moves * grid.spacing)
+    """The lattice's decision rule on `prices` (paths, T): each day the candidate inventory
+    maximising today's cash plus C_t interpolated at the path's X_t and between levels. Returns
+    the hard schedule, as `run_lsmc_policy` does."""
 
-    def forward(node, today):
-        day, price, x, continuation, allowed = today
-        reachable = targets[node]
-        value_after = jnp.take_along_axis(_interpolate(lattice.factor, continuation, x), reachable, axis=-1)
-        cash = _move_cash(inputs, scene, grid, price, day)
-        best = jnp.argmax(jnp.where(allowed[node], cash + value_after, -jnp.inf), axis=-1)
-        chosen = lambda a: jnp.take_along_axis(a, best[:, None], axis=-1)[:, 0]  # noqa: E731
-        return chosen(reachable), (node, chosen(cash), net_moves[best])
+    def continuation(today, _):
+        x, table = today
+        return _interpolate(lattice.factor, table, x)
 
-    start = jnp.full(prices.shape[0], grid.start_node)
-    last, (nodes, cash, net) = jax.lax.scan(
-        forward, start, (jnp.arange(inputs.n_days), prices.T, _factor(inputs, prices).T, lattice.continuation,
-                         jnp.asarray(grid.allowed)))
-    inventory = grid.spacing * jnp.concatenate([nodes, last[None]]).T
-    kept = kept_fraction(inputs, scene)
-    return Schedule(cash.sum(0), jnp.maximum(net, 0.0).T / kept, jnp.maximum(-net, 0.0).T, inventory)
+    return run_continuation_policy(inputs, scene, grid, prices, continuation,
+                                   (_factor(inputs, prices).T, lattice.continuation))
 
 
 class LatticePenalty(AbstractPenalty):

@@ -1,25 +1,32 @@
 """The industry baseline: least-squares Monte Carlo (Longstaff-Schwartz, as in Boogert & de Jong
-2008) on an inventory grid, and the perfect-foresight upper bound.
+2008) with continuation values on an inventory grid, and the perfect-foresight upper bound.
 
-Inventory lives on `nodes` equally spaced levels 0, D, 2D, ..., capacity (D = capacity /
-(nodes - 1)). A day's decision moves it by a whole number k of steps, allowed when the move
-honours the hard constraints of `_model.py` at the start-of-day inventory: k D <= (1 -
-fuel_loss) max_injection g_in(V / capacity), -k D <= max_withdrawal g_out(V / capacity), the
-target inside [0, capacity] and one from which the terminal requirement can still be reached on
-the grid. Rates that are not whole multiples of D are rounded down, so
-the grid policy is feasible and its value a lower bound of the continuous problem's.
+Continuation values live on `nodes` equally spaced levels 0, D, 2D, ..., capacity (D = capacity /
+(nodes - 1)) and are interpolated linearly in between; the inventory itself is continuous. A
+day's decision chooses tomorrow's inventory among the grid levels inside the day's exact feasible
+interval (`feasible_flows`: the ratchet-limited rates at the start-of-day inventory after fuel
+loss, the room left, and the floor that keeps the terminal requirement reachable), the
+interval's two ends (the largest feasible injection and withdrawal) and holding
+(`candidate_inventories`). Today's cash is piecewise linear in tomorrow's inventory (kinked at
+holding) and the interpolated continuation is linear between levels, so these candidates contain
+the best decision over the whole continuous interval for the fitted continuation. No rate is
+rounded to the grid: with ratchets, fuel loss, costs or discounting the rule keeps the
+facility's whole flexibility, and every schedule it produces is feasible by construction.
 
-Backward over days, for every node at once: the realised value of the days after t (per path,
-the cash flows of the decisions taken later along that path, discounted to day 0) is regressed
-on 1, x, ..., x^degree, x = (spot_t / F_t - 1) / sd_t (the same span as a polynomial in spot_t;
-standardised for conditioning), giving the continuation value of each target node as a function
-of today's spot. Each path and node then takes the move that maximises today's cash plus the
-fitted continuation, and is credited with the realised cash flows (Longstaff-Schwartz), not the
-fitted ones. The in-sample value is the mean realised value from the start node on the paths
-the regressions were fitted on; the out-of-sample value runs the fitted decision rule forward on
-fresh paths.
+Backward over days, for every level at once: the realised value of the days after t (per path,
+the cash flows of the decisions taken later along that path, discounted to day 0; between levels
+interpolated) is regressed on 1, x, ..., x^degree, x = (spot_t / F_t - 1) / sd_t (the same span as a
+polynomial in spot_t; standardised for conditioning), giving the continuation value of each
+level as a function of today's spot. Each path and level then takes the candidate that maximises
+today's cash plus the fitted continuation, and is credited with the realised cash flows
+(Longstaff-Schwartz), not the fitted ones. The in-sample value is the mean realised value at the
+initial inventory on the paths the regressions were fitted on (interpolated when it lies between
+levels); the out-of-sample value runs the fitted decision rule forward on fresh paths, from the
+exact initial inventory. Below the floor (never reached by a feasible schedule) a level's
+decision is the forced largest injection, which keeps its value finite for the interpolation.
 """
 
+import math
 from typing import NamedTuple
 
 import equinox as eqx
@@ -28,83 +35,90 @@ import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
-from snapo_ode import InputError, Scene, check_count, time_function
+from snapo_ode import Scene, check_count, time_function
 
 from ._inputs import StorageInputs
 from ._lp import solve_intrinsic
-from ._model import GAS_EFFECTS, Schedule, flows_and_cash, kept_fraction, rate_fraction
+from ._model import GAS_EFFECTS, Schedule, feasible_flows, flows_and_cash, inventory_floor, kept_fraction
 from ._results import standard_error
+
+# Candidates that lie this close (relative to a day's largest flow) outside the feasible interval
+# are kept and moved onto its end: round-off must not drop the level a rate lands on exactly.
+_TOLERANCE = 1e-9
 
 
 class InventoryGrid(NamedTuple):
-    """The inventory grid and its feasible moves. `spacing` D [MMBtu]; `moves`: the net moves in
-    steps, shape (M,); `targets`: the node each move leads to, shape (N, M) (clipped to the grid
-    where a move is not allowed); `allowed`: shape (T, N, M); `start_node`."""
+    """The levels of the continuation values: `spacing` D [MMBtu], `nodes` N (levels 0, D, ...,
+    capacity), and `window`: the offsets k of the levels floor(V / D) + k a day's decision may
+    reach from inventory V, shape (W,), covering the largest withdrawal and injection."""
 
     spacing: float
-    moves: np.ndarray
-    targets: np.ndarray
-    allowed: np.ndarray
-    start_node: int
+    nodes: int
+    window: np.ndarray
+
+    @property
+    def levels(self) -> np.ndarray:
+        """The N levels [MMBtu]."""
+        return self.spacing * np.arange(self.nodes)
 
 
 def inventory_grid(inputs: StorageInputs, scene: Scene, nodes: int) -> InventoryGrid:
-    """Build the grid of `nodes` levels and the moves allowed on each day from each node.
+    """The grid of `nodes` levels from 0 to capacity, with the window of levels a day can reach.
 
-    **Raises:** `InputError` for fewer than 2 nodes, or when the initial inventory is not a grid
-    level (it must be a whole multiple of capacity / (nodes - 1)).
+    **Raises:** `InputError` for fewer than 2 nodes (or more than 100,000).
     """
     nodes = check_count("nodes", nodes, 2, 100_000)
-    capacity = float(inputs.capacity)
-    spacing = capacity / (nodes - 1)
-    start = float(inputs.initial_inventory) / spacing
-    if abs(start - round(start)) > 1e-6:
-        raise InputError(f"initial_inventory = {float(inputs.initial_inventory):g} is not on the grid of nodes = "
-                         f"{nodes} (spacing {spacing:g}); choose nodes so that capacity / (nodes - 1) divides it.")
-    kept = kept_fraction(inputs, scene)
-    tolerance = 1e-9
-    max_in = int(np.floor(float(kept * inputs.max_injection) / spacing + tolerance))
-    max_out = int(np.floor(float(inputs.max_withdrawal) / spacing + tolerance))
-    moves = np.arange(-max_out, max_in + 1)
-    levels = spacing * np.arange(nodes)
-    fill = jnp.asarray(levels / capacity)
-    in_room = np.asarray(kept * inputs.max_injection * rate_fraction(inputs.injection_ratchet, fill, scene, None))
-    out_room = np.asarray(inputs.max_withdrawal * rate_fraction(inputs.withdrawal_ratchet, fill, scene, None))
-    step = moves * spacing
-    raw_targets = np.arange(nodes)[:, None] + moves[None, :]
-    rate_ok = (step[None] <= in_room[:, None] * (1 + tolerance) + tolerance) & (
-        -step[None] <= out_room[:, None] * (1 + tolerance) + tolerance)
-    inside = (raw_targets >= 0) & (raw_targets < nodes)
-    targets = np.clip(raw_targets, 0, nodes - 1)
-    # Backward over days: a node is viable if some allowed move leads to a viable node tomorrow,
-    # the grid's own version of `inventory_floor` (rounded-down rates reach less).
-    viable = levels >= float(inputs.terminal_inventory_min) - tolerance * capacity
-    allowed = np.zeros((inputs.n_days,) + targets.shape, dtype=bool)
-    for day in range(inputs.n_days - 1, -1, -1):
-        allowed[day] = rate_ok & inside & viable[targets]
-        viable = allowed[day].any(axis=1)
-    start_node = int(round(start))
-    if not viable[start_node]:
-        raise InputError(f"terminal_inventory_min = {float(inputs.terminal_inventory_min):g} cannot be reached on the "
-                         f"grid of nodes = {nodes} (rates rounded down to whole steps of {spacing:g}); use more nodes.")
-    return InventoryGrid(spacing, moves, targets, allowed, start_node)
+    spacing = float(inputs.capacity) / (nodes - 1)
+    kept = float(kept_fraction(inputs, scene))
+    largest_in = kept * float(inputs.max_injection) * float(np.max(np.asarray(inputs.injection_ratchet)[:, 1]))
+    largest_out = float(inputs.max_withdrawal) * float(np.max(np.asarray(inputs.withdrawal_ratchet)[:, 1]))
+    steps_in = min(math.ceil(largest_in / spacing), nodes)
+    steps_out = min(math.ceil(largest_out / spacing), nodes)
+    return InventoryGrid(spacing, nodes, np.arange(-steps_out, steps_in + 2))
+
+
+def candidate_inventories(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, inventory: jax.Array,
+                          floor_tomorrow: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Tomorrow's inventories a decision chooses among from start-of-day `inventory` [MMBtu] (any
+    shape S): the grid levels inside the exact feasible interval, the interval's two ends and
+    holding (or the nearest feasible inventory). Returns `(positions, valid)`, each shape S + (W + 3,);
+    every valid position is feasible."""
+    _, lower, upper = feasible_flows(inputs, scene, inventory, floor_tomorrow, None)
+    low_end, high_end = (inventory + lower)[..., None], (inventory + upper)[..., None]
+    base = jnp.floor(inventory / grid.spacing)[..., None]
+    levels = (base + jnp.asarray(grid.window)) * grid.spacing
+    slack = _TOLERANCE * jnp.maximum(inputs.max_injection, inputs.max_withdrawal)
+    inside = (levels >= low_end - slack) & (levels <= high_end + slack)
+    ends = jnp.concatenate([low_end, high_end, jnp.clip(inventory[..., None], low_end, high_end)], axis=-1)
+    positions = jnp.concatenate([jnp.clip(levels, low_end, high_end), ends], axis=-1)
+    return positions, jnp.concatenate([inside, jnp.ones(ends.shape, bool)], axis=-1)
+
+
+def interpolate_levels(values: jax.Array, positions: jax.Array, spacing: float) -> jax.Array:
+    """Values given at the levels 0, D, ... (last axis, N) interpolated linearly at `positions`
+    [MMBtu] (flat beyond the ends): every row of `values` at all of them, shape
+    values.shape[:-1] + positions.shape (`jax.vmap` it to read each row at its own)."""
+    nodes = values.shape[-1]
+    scaled = jnp.clip(positions / spacing, 0.0, nodes - 1)
+    low = jnp.clip(jnp.floor(scaled).astype(int), 0, nodes - 2)
+    weight = scaled - low
+    return (1 - weight) * values[..., low] + weight * values[..., low + 1]
+
+
+def _per_row(values: jax.Array, positions: jax.Array, spacing: float) -> jax.Array:
+    """Row p of `values` (paths, N) at row p of `positions` (paths, M)."""
+    return jax.vmap(interpolate_levels, in_axes=(0, 0, None))(values, positions, spacing)
 
 
 class LSMCFit(NamedTuple):
     """Fitted regressions and in-sample values. `coefficients`: shape (T, degree + 1, N), the
-    continuation value [$] of ending day t at each node as a polynomial in the standardised spot;
+    continuation value [$] of ending day t at each level as a polynomial in the standardised spot;
     `spot_scale`: sd_t of spot_t / F_t on the fitting paths, shape (T,); `values`: realised
-    value [$] from the start node per fitting path, shape (paths,)."""
+    value [$] from the initial inventory per fitting path, shape (paths,)."""
 
     coefficients: jax.Array
     spot_scale: jax.Array
     values: jax.Array
-
-
-def _move_cash(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, price, day):
-    """Discounted cash flow [$] of every move at `price`, shape price.shape + (M,)."""
-    net = jnp.asarray(grid.moves * grid.spacing)
-    return flows_and_cash(inputs, scene, net, price[..., None], day, None)[2]
 
 
 def _basis(ratio, scale, degree: int):
@@ -113,31 +127,73 @@ def _basis(ratio, scale, degree: int):
     return x[..., None] ** jnp.arange(degree + 1)
 
 
+def level_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, price, day, floor_tomorrow,
+                    continuation, later=None):
+    """One backward day at every level: each path (rows of `price`, shape (paths,)) and level
+    takes the candidate maximising today's discounted cash plus `continuation` (paths, N), the
+    value of tomorrow's levels it decides by, and is credited with the cash plus `later` (paths, N)
+    at that candidate (None: `continuation`). Returns `(credited, decided)`, each (paths, N): the
+    credited value and the maximised score."""
+    levels = jnp.asarray(grid.levels)
+    positions, valid = candidate_inventories(inputs, scene, grid, levels, floor_tomorrow)  # (N, M)
+    cash = flows_and_cash(inputs, scene, positions - levels[:, None], price[:, None, None], day, None)[2]
+    score = jnp.where(valid, cash + interpolate_levels(continuation, positions, grid.spacing), -jnp.inf)
+    best = jnp.argmax(score, axis=-1)[..., None]
+    decided = jnp.take_along_axis(score, best, axis=-1)[..., 0]
+    if later is None:
+        return decided, decided
+    credited = jnp.take_along_axis(cash + interpolate_levels(later, positions, grid.spacing), best, axis=-1)[..., 0]
+    return credited, decided
+
+
+def start_value(inputs: StorageInputs, grid: InventoryGrid, values: jax.Array) -> jax.Array:
+    """Day-0 `values` (..., N) at the initial inventory (interpolated between levels)."""
+    return interpolate_levels(values, inputs.initial_inventory[None], grid.spacing)[..., 0]
+
+
 @eqx.filter_jit
 def fit_lsmc(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices: jax.Array, degree: int) -> LSMCFit:
     """Longstaff-Schwartz backward induction on `prices` of shape (paths, T) [$/MMBtu]."""
-    n_days = inputs.n_days
     ratio = prices / inputs.forward_curve
     spot_scale = jnp.maximum(jnp.std(ratio, axis=0), 1e-12)
-    targets = jnp.asarray(grid.targets)
+    floor = inventory_floor(inputs, scene, None)
 
     def back(later, today):
-        day, price, ratio_t, scale, allowed = today
+        day, price, ratio_t, scale, floor_tomorrow = today
         basis = _basis(ratio_t, scale, degree)
         coefficients = jnp.linalg.lstsq(basis, later)[0]
-        continuation = basis @ coefficients
-        cash = _move_cash(inputs, scene, grid, price, day)[:, None, :]
-        score = jnp.where(allowed[None], cash + continuation[:, targets], -jnp.inf)
-        best = jnp.argmax(score, axis=-1)[..., None]
-        realised = jnp.take_along_axis(cash + later[:, targets], best, axis=-1)[..., 0]
+        realised, _ = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients, later)
         return realised, coefficients
 
-    nodes = grid.targets.shape[0]
-    days = jnp.arange(n_days)
-    later = jnp.zeros((prices.shape[0], nodes))
-    values, coefficients = jax.lax.scan(back, later, (days, prices.T, ratio.T, spot_scale, jnp.asarray(grid.allowed)),
-                                        reverse=True)
-    return LSMCFit(coefficients, spot_scale, values[:, grid.start_node])
+    later = jnp.zeros((prices.shape[0], grid.nodes))
+    values, coefficients = jax.lax.scan(back, later, (jnp.arange(inputs.n_days), prices.T, ratio.T, spot_scale,
+                                                      floor[1:]), reverse=True)
+    return LSMCFit(coefficients, spot_scale, start_value(inputs, grid, values))
+
+
+def run_continuation_policy(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices: jax.Array,
+                            continuation, per_day) -> Schedule:
+    """A rule that each day moves every path (`prices`, shape (paths, T)) to the candidate
+    inventory maximising today's cash plus `continuation(today, prices_t)` (paths, N), the value of
+    ending the day at each level, interpolated. `per_day`: what `continuation` reads, leading axis
+    T. Starts at the exact initial inventory; returns the hard schedule, as `simulate` does."""
+    floor = inventory_floor(inputs, scene, None)
+
+    def forward(inventory, today):
+        day, price, floor_tomorrow, rest = today
+        positions, valid = candidate_inventories(inputs, scene, grid, inventory, floor_tomorrow)  # (paths, M)
+        cash = flows_and_cash(inputs, scene, positions - inventory[:, None], price[:, None], day, None)[2]
+        value_after = _per_row(continuation(rest, price), positions, grid.spacing)
+        best = jnp.argmax(jnp.where(valid, cash + value_after, -jnp.inf), axis=-1)[:, None]
+        chosen = lambda a: jnp.take_along_axis(a, best, axis=-1)[:, 0]  # noqa: E731
+        return chosen(positions), (inventory, chosen(cash))
+
+    start = jnp.broadcast_to(inputs.initial_inventory, prices.shape[:1])
+    last, (inventory, cash) = jax.lax.scan(forward, start, (jnp.arange(inputs.n_days), prices.T, floor[1:], per_day))
+    inventory = jnp.concatenate([inventory, last[None]]).T
+    net = jnp.diff(inventory, axis=-1)
+    kept = kept_fraction(inputs, scene)
+    return Schedule(cash.sum(0), jnp.maximum(net, 0.0) / kept, jnp.maximum(-net, 0.0), inventory)
 
 
 @eqx.filter_jit
@@ -146,27 +202,14 @@ def run_lsmc_policy(fit: LSMCFit, inputs: StorageInputs, scene: Scene, grid: Inv
     """The fitted decision rule run forward on `prices` of shape (paths, T), typically fresh
     paths (out of sample). Returns the hard schedule of every path, as `simulate` does."""
     degree = fit.coefficients.shape[1] - 1
-    kept = kept_fraction(inputs, scene)
-    targets = jnp.asarray(grid.targets)
-    net_moves = jnp.asarray(grid.moves * grid.spacing)
-
-    def forward(node, today):
-        day, price, ratio_t, scale, coefficients, allowed = today
-        basis = _basis(ratio_t, scale, degree)
-        reachable = targets[node]  # (paths, M)
-        continuation = jnp.einsum("pd,dpm->pm", basis, coefficients[:, reachable])
-        cash = _move_cash(inputs, scene, grid, price, day)
-        best = jnp.argmax(jnp.where(allowed[node], cash + continuation, -jnp.inf), axis=-1)
-        chosen = lambda a: jnp.take_along_axis(a, best[:, None], axis=-1)[:, 0]  # noqa: E731
-        return chosen(reachable), (node, chosen(cash), net_moves[best])
-
-    start = jnp.full(prices.shape[0], grid.start_node)
     ratio = prices / inputs.forward_curve
-    last, (nodes, cash, net) = jax.lax.scan(
-        forward, start, (jnp.arange(inputs.n_days), prices.T, ratio.T, fit.spot_scale, fit.coefficients,
-                         jnp.asarray(grid.allowed)))
-    inventory = grid.spacing * jnp.concatenate([nodes, last[None]]).T
-    return Schedule(cash.sum(0), jnp.maximum(net, 0.0).T / kept, jnp.maximum(-net, 0.0).T, inventory)
+
+    def continuation(today, _):
+        ratio_t, scale, coefficients = today
+        return _basis(ratio_t, scale, degree) @ coefficients
+
+    return run_continuation_policy(inputs, scene, grid, prices, continuation,
+                                   (ratio.T, fit.spot_scale, fit.coefficients))
 
 
 def perfect_foresight(inputs: StorageInputs, scene: Scene, prices, *, progress: bool = False) -> np.ndarray:

@@ -37,8 +37,8 @@ from jax.scipy.special import ndtr
 from snapo_ode import Scene, check_count
 
 from ._inputs import StorageInputs
-from ._lsmc import InventoryGrid, LSMCFit, _basis, _move_cash
-from ._model import factor_transition
+from ._lsmc import InventoryGrid, LSMCFit, _basis, level_decisions
+from ._model import factor_transition, inventory_floor
 
 PenaltyTarget = Literal["realised", "fitted"]
 
@@ -218,31 +218,25 @@ def fit_penalty(fit: LSMCFit, inputs: StorageInputs, scene: Scene, grid: Invento
     if target not in ("realised", "fitted"):
         raise ValueError(f'target = {target!r}: use "fitted" or "realised".')
     n_days = inputs.n_days
-    targets = jnp.asarray(grid.targets)
     steps = _day_steps(inputs, prices, fit.spot_scale)
     ratio = prices / inputs.forward_curve
     lsmc_degree = fit.coefficients.shape[1] - 1
 
     def back(later, today):
         realised_later, fitted_later = later
-        day, price, ratio_t, scale, coefficients, allowed, step = today
+        day, price, ratio_t, scale, coefficients, floor_tomorrow, step = today
         features = _features(basis, step, ratio_t, scale, state_degree)
         value_after = realised_later if target == "realised" else fitted_later
         beta = _penalty_regression(_basis(ratio_t, scale, degree), features, value_after)
         beta = jnp.where(day < n_days - 1, beta, 0.0)
-        # The LSMC's own decision at day t, as in fit_lsmc.
+        # The LSMC's own decision at day t, as in fit_lsmc; "fitted" is its maximised score.
         continuation = _basis(ratio_t, scale, lsmc_degree) @ coefficients
-        cash = _move_cash(inputs, scene, grid, price, day)[:, None, :]
-        score = jnp.where(allowed[None], cash + continuation[:, targets], -jnp.inf)
-        best = jnp.argmax(score, axis=-1)[..., None]
-        realised = jnp.take_along_axis(cash + realised_later[:, targets], best, axis=-1)[..., 0]
-        fitted = jnp.take_along_axis(score, best, axis=-1)[..., 0]
-        fitted = jnp.where(jnp.isfinite(fitted), fitted, 0.0)  # nodes with no move: never reached
+        realised, fitted = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, continuation,
+                                           realised_later)
         return (realised, fitted), beta
 
-    nodes = grid.targets.shape[0]
-    zeros = jnp.zeros((prices.shape[0], nodes))
-    per_day = (jnp.arange(n_days), prices.T, ratio.T, fit.spot_scale, fit.coefficients, jnp.asarray(grid.allowed),
-               steps)
+    zeros = jnp.zeros((prices.shape[0], grid.nodes))
+    per_day = (jnp.arange(n_days), prices.T, ratio.T, fit.spot_scale, fit.coefficients,
+               inventory_floor(inputs, scene, None)[1:], steps)
     _, beta = jax.lax.scan(back, (zeros, zeros), per_day, reverse=True)
     return RegressionPenalty(basis, beta, fit.spot_scale, state_degree)

@@ -128,8 +128,10 @@ class LSMCComparison(Result):
     out-of-sample values with the hard constraints, their paired difference, the
     perfect-foresight bound, the dual upper bound with each policy's duality gap (and the factor
     lattice's near-optimal rule as a reference, at non-zero volatility), LSMC's pathwise deltas,
-    and the wall time of each method (`_certificate.py`). Values [$]; gaps as fractions of the
-    bound; `deltas_snapo_vs_lsmc`: the largest difference of the two methods' 365 deltas over the
+    and the wall time of each method (`_certificate.py`); `warnings`: what a reader must
+    know before trusting a figure (a bound that failed a check, a policy below the intrinsic
+    value), also printed on stderr. Values [$]; gaps as fractions of the
+    bound; `deltas_snapo_vs_lsmc`: the largest difference of the two methods' daily deltas over the
     largest LSMC delta."""
 
     study: StorageStudy = field(json=False)
@@ -151,19 +153,26 @@ class LSMCComparison(Result):
     perfect_foresight_paths: int
     snapo_seconds: float
     lsmc_inventory_mean: list
-    dual_upper_bound: float
-    dual_upper_bound_se: float
+    dual_upper_bound: float | None
+    dual_upper_bound_se: float | None
     dual_penalty: str
     dual_bounds_continuous_policies: bool
+    dual_grid_nodes: int
+    dual_relaxation: float
     dual_seconds: float
     snapo_value_control_variate: float
     snapo_value_control_variate_se: float
-    snapo_gap: float
-    snapo_gap_se: float
+    snapo_gap: float | None
+    snapo_gap_se: float | None
     lsmc_value_control_variate: float
     lsmc_value_control_variate_se: float
-    lsmc_gap: float
-    lsmc_gap_se: float
+    lsmc_gap: float | None
+    lsmc_gap_se: float | None
+    intrinsic_value_control_variate: float
+    intrinsic_value_control_variate_se: float
+    intrinsic_gap: float | None
+    intrinsic_gap_se: float | None
+    warnings: list
     lattice_out_of_sample: float | None = None
     lattice_se: float | None = None
     lattice_value_control_variate: float | None = None
@@ -179,9 +188,17 @@ class LSMCComparison(Result):
     omit_none: ClassVar[bool] = True
 
     def to_json(self) -> dict:
-        return {**self.study.to_json(), **super().to_json()}
+        # The bound and the gaps are always present: null where the bound could not be certified.
+        nullable = {key: getattr(self, key) for key in ("dual_upper_bound", "dual_upper_bound_se", "snapo_gap",
+                                                         "snapo_gap_se", "lsmc_gap", "lsmc_gap_se")}
+        return {**self.study.to_json(), **super().to_json(), **nullable}
+
+    @staticmethod
+    def _percent(gap: float | None, se: float | None) -> str:
+        return "not certified" if gap is None else f"{100 * gap:.3f}% +- {100 * se:.3f}%"
 
     def summary(self) -> str:
+        days = len(self.study.deltas)
         return "\n".join([
             self.study.summary(),
             f"  on the same {self.study.paths:,} fresh paths (out of sample, hard constraints):",
@@ -191,15 +208,17 @@ class LSMCComparison(Result):
             f"    SNAPO - LSMC (paired)             {self.snapo_minus_lsmc:>16,.0f} $ +- {self.snapo_minus_lsmc_se:,.0f}",
             f"    perfect foresight ({self.perfect_foresight_paths} paths)     "
             f"{self.perfect_foresight:>16,.0f} $ +- {self.perfect_foresight_se:,.0f}",
-            f"    dual upper bound ({self.dual_penalty})   {self.dual_upper_bound:>16,.0f} $ +- "
-            f"{self.dual_upper_bound_se:,.0f}",
-            f"    duality gap: SNAPO {100 * self.snapo_gap:.3f}% +- {100 * self.snapo_gap_se:.3f}%, LSMC "
-            f"{100 * self.lsmc_gap:.3f}% +- {100 * self.lsmc_gap_se:.3f}%"
+            f"    dual upper bound ({self.dual_penalty}, {self.dual_grid_nodes} levels)   "
+            + ("not certified" if self.dual_upper_bound is None else
+               f"{self.dual_upper_bound:>16,.0f} $ +- {self.dual_upper_bound_se:,.0f}"),
+            f"    duality gap: SNAPO {self._percent(self.snapo_gap, self.snapo_gap_se)}, LSMC "
+            f"{self._percent(self.lsmc_gap, self.lsmc_gap_se)}"
             + ("" if self.lattice_gap is None else f", lattice rule {100 * self.lattice_gap:.3f}%")
-            + ("" if self.dual_bounds_continuous_policies else " (the bound is certified for grid policies only)"),
-            f"  value + 365 deltas: SNAPO {self.snapo_seconds:.1f} s (training and one reverse pass); LSMC + pathwise "
+            + (f" (rates relaxed by up to {self.dual_relaxation:.1%} to solve it on a grid)"
+               if self.dual_relaxation > 0 else ""),
+            f"  value + {days} deltas: SNAPO {self.snapo_seconds:.1f} s (training and one reverse pass); LSMC + pathwise "
             f"deltas {self.lsmc_plus_deltas_seconds:.1f} s; LSMC + bumps ~{self.lsmc_plus_bumps_seconds / 60:.0f} min "
             f"(estimated); compile apart",
             f"  SNAPO's deltas against LSMC's pathwise deltas: largest difference {self.deltas_snapo_vs_lsmc:.1%} of "
             "the largest",
-        ])
+        ] + [f"  warning: {warning}" for warning in self.warnings])

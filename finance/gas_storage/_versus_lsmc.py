@@ -8,7 +8,7 @@ import numpy as np
 
 from snapo_ode import InputError, agreement
 
-from ._certificate import duality_gaps, lsmc_deltas
+from ._certificate import duality_gaps, intrinsic_schedule, lsmc_deltas
 from ._inputs import StorageInputs
 from ._lsmc import perfect_foresight, value_lsmc
 from ._model import spot_prices, stochastic_scene
@@ -26,8 +26,8 @@ def lsmc_fit_shocks(settings: StudySettings, n_days: int) -> jax.Array:
 
 def check_grid_trades(inputs: StorageInputs, nodes: int) -> None:
     """Refuse, before any compile, an LSMC grid whose step exceeds the largest daily injection
-    (after fuel loss) or withdrawal: the grid policy, the dual bound and the perfect-foresight DP
-    could then never move (rates are rounded down to whole steps) and would be worth 0."""
+    (after fuel loss) or withdrawal: a day's trade would then end between two levels of the
+    continuation values, which interpolation alone would price."""
     spacing = float(inputs.capacity) / (nodes - 1)
     kept = 1.0 - float(inputs.fuel_loss)
     largest = {"injection": kept * float(inputs.max_injection) * float(np.max(np.asarray(inputs.injection_ratchet)[:, 1])),
@@ -40,8 +40,18 @@ def check_grid_trades(inputs: StorageInputs, nodes: int) -> None:
                                     - round(float(inputs.initial_inventory) * (n - 1) / float(inputs.capacity))) < 1e-9
             needed = next((n for n in range(needed, needed + 10_000) if on_grid(n)), needed)
             raise InputError(f"lsmc_nodes = {nodes} makes the inventory grid step {spacing:,.0f}, more than the largest "
-                             f"daily {flow} ({amount:,.0f}): the grid could never {verbs[flow]}. Use "
+                             f"daily {flow} ({amount:,.0f}): a day's {flow} would end between two levels of the "
+                             f"continuation values (no level to {verbs[flow]} to). Use "
                              f"--lsmc-nodes {needed} or more (allowed: a step no larger than a day's flow).")
+
+
+def trading_nodes(inputs: StorageInputs, at_least: int) -> int:
+    """The fewest levels, `at_least` or more, whose step is no larger than a day's largest
+    injection (after fuel loss) or withdrawal (what `check_grid_trades` asks)."""
+    kept = 1.0 - float(inputs.fuel_loss)
+    smallest = min(kept * float(inputs.max_injection) * float(np.max(np.asarray(inputs.injection_ratchet)[:, 1])),
+                   float(inputs.max_withdrawal) * float(np.max(np.asarray(inputs.withdrawal_ratchet)[:, 1])))
+    return max(at_least, int(np.ceil(float(inputs.capacity) / smallest * (1 + 1e-12))) + 1)
 
 
 def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: int = 101, degree: int = 3,
@@ -64,8 +74,9 @@ def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: 
     difference = snapo_values - np.asarray(schedule.value)
     subset = min(foresight_paths, settings.paths)
     foresight = perfect_foresight(inputs, scene, eval_prices[:subset], progress=settings.progress)
-    gaps = duality_gaps(inputs, scene, grid, study.evaluation_shocks, {"snapo": study.hard, "lsmc": schedule},
-                        lattice_points=lattice_points)
+    policies = {"snapo": study.hard, "lsmc": schedule,
+                "intrinsic": intrinsic_schedule(inputs, scene, study.intrinsic, eval_prices)}
+    gaps = duality_gaps(inputs, scene, grid, study.evaluation_shocks, policies, lattice_points=lattice_points)
     deltas = lsmc_deltas(fit, inputs, scene, grid, study.evaluation_shocks, lsmc["lsmc_fit_seconds"],
                          lsmc["lsmc_eval_seconds"])
     return LSMCComparison(
@@ -74,7 +85,7 @@ def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: 
         snapo_minus_lsmc=float(difference.mean()), snapo_minus_lsmc_se=standard_error(difference),
         perfect_foresight=float(foresight.mean()), perfect_foresight_se=standard_error(foresight),
         perfect_foresight_paths=subset,
-        # Wall time from the start of training to the 365 deltas: the first (compiling) reverse pass too.
+        # Wall time from the start of training to the T deltas: the first (compiling) reverse pass too.
         snapo_seconds=study.train_wall_seconds + study.compile_breakdown["gradient"] + study.gradient_seconds,
         lsmc_inventory_mean=np.asarray(schedule.inventory).mean(0).tolist(), lsmc_schedule=schedule,
         deltas_snapo_vs_lsmc=agreement(np.asarray(study.deltas), np.asarray(deltas["lsmc_pathwise_deltas"])).normwise)
