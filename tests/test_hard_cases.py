@@ -42,6 +42,22 @@ def test_a_non_finite_result_is_refused_naming_the_field(tmp_path):
     assert json.loads(Toy(1.0, [2.0]).write_json(tmp_path / "toy.json").read_text()) == {"value": 1.0, "curve": [2.0]}
 
 
+def cantera_bumped(temperature: float, reaction: int, time: float, step: float = 1e-4) -> float:
+    """d ln T(time) / d ln A_reaction by central bumps of Cantera's own constant-volume solve
+    (rate multipliers 1 +- step, tolerances far tighter than the sensitivity's)."""
+    def log_temperature(multiplier):
+        gas = cantera.Solution(H2O2)
+        gas.TPX = temperature, cantera.one_atm, "H2:2,O2:1,N2:3.76"
+        gas.set_multiplier(multiplier, reaction)
+        reactor = cantera.IdealGasReactor(gas, clone=False)
+        net = cantera.ReactorNet([reactor])
+        net.rtol, net.atol, net.max_steps = 1e-13, 1e-20, 1_000_000
+        net.advance(time)
+        return math.log(reactor.phase.T)
+
+    return (log_temperature(1 + step) - log_temperature(1 - step)) / (math.log(1 + step) - math.log(1 - step))
+
+
 # 2500 K failed loudly (non-finite reverse pass near the fast front) until the reactors moved to
 # Rodas5 with rejected trial steps kept out of the gradient; now it must hold like 1800 K.
 @pytest.mark.parametrize("temperature", ["1800", "2500"])
@@ -51,8 +67,14 @@ def test_h2o2_sensitivities_from_hot_starts_are_finite_and_match_cantera(tmp_pat
                  "--no-progress"]) == 0
     sensitivities = json.loads(out.read_text())["sensitivities"]
     assert not sensitivities["after_ignition"]  # 0.9 x the delay (0.0117 ms at 1800 K), not the 1000 K case's 0.27 ms
-    assert sensitivities["max_relative_difference"] < 1e-3 and sensitivities["same_ranking"]
+    assert sensitivities["same_ranking"]
     assert np.all(np.isfinite([row["ours"] for row in sensitivities["top"]]))
+    # The reference is Cantera's own solve bumped (central, tight tolerances), not its forward
+    # sensitivities: those (CVODES at sensitivity tolerance 1e-6) differed from ours by 2.2e-3 at
+    # 1800 K on one machine while ours matched these bumps to 1e-8 on every top reaction.
+    for row in sensitivities["top"][:5]:
+        bumped = cantera_bumped(float(temperature), row["reaction"], sensitivities["time_s"])
+        assert row["ours"] == pytest.approx(bumped, rel=1e-6), row
 
 
 @pytest.mark.parametrize("solver", ["rodas5", "bdf"])
