@@ -73,8 +73,8 @@ def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_
         cash = np.asarray(schedule.value)
         paid = 0.0 if penalty is None else np.asarray(schedule_penalty(penalty, inputs, grid, prices,
                                                                        schedule.inventory, relaxed))
-        lowers[name] = (cash, cash - paid)
         lower = cash - paid
+        lowers[name] = (cash, lower)
         out.update({f"{name}_value_control_variate": float(lower.mean()),
                     f"{name}_value_control_variate_se": standard_error(lower),
                     f"{name}_gap": float((upper - lower).mean() / upper.mean()),

@@ -39,7 +39,8 @@ from snapo_ode import Scene, check_count, time_function
 
 from ._inputs import StorageInputs
 from ._lp import solve_intrinsic
-from ._model import GAS_EFFECTS, Schedule, feasible_flows, flows_and_cash, inventory_floor, kept_fraction
+from ._model import (GAS_EFFECTS, Schedule, feasible_flows, flows_and_cash, inventory_floor, kept_fraction,
+                     largest_flows)
 from ._results import standard_error
 
 # Candidates that lie this close (relative to a day's largest flow) outside the feasible interval
@@ -69,9 +70,7 @@ def inventory_grid(inputs: StorageInputs, scene: Scene, nodes: int) -> Inventory
     """
     nodes = check_count("nodes", nodes, 2, 100_000)
     spacing = float(inputs.capacity) / (nodes - 1)
-    kept = float(kept_fraction(inputs, scene))
-    largest_in = kept * float(inputs.max_injection) * float(np.max(np.asarray(inputs.injection_ratchet)[:, 1]))
-    largest_out = float(inputs.max_withdrawal) * float(np.max(np.asarray(inputs.withdrawal_ratchet)[:, 1]))
+    largest_in, largest_out = largest_flows(inputs, scene)
     steps_in = min(math.ceil(largest_in / spacing), nodes)
     steps_out = min(math.ceil(largest_out / spacing), nodes)
     return InventoryGrid(spacing, nodes, np.arange(-steps_out, steps_in + 2))

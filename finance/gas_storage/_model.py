@@ -78,6 +78,15 @@ def flow_sharpness(inputs: StorageInputs, sharpness: float | None):
     return sharpness / jnp.maximum(inputs.max_injection, inputs.max_withdrawal)
 
 
+def largest_flows(inputs: StorageInputs, scene: Scene) -> tuple[float, float]:
+    """The largest daily net injection (after fuel loss) and withdrawal at any fill [MMBtu/day],
+    as host floats: the rates times the ratchets' largest fractions (1 without the ratchets effect)."""
+    kept = float(kept_fraction(inputs, scene))
+    fraction = lambda table: float(jnp.max(table[:, 1])) if scene.has("ratchets") else 1.0  # noqa: E731
+    return (kept * float(inputs.max_injection) * fraction(inputs.injection_ratchet),
+            float(inputs.max_withdrawal) * fraction(inputs.withdrawal_ratchet))
+
+
 def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
     """L_t, shape (T+1,): the least start-of-day inventory from which V_T >= V_min can still be
     reached at the maximum injection rate: L_T = V_min, L_t = max(L_{t+1} - (1 - fuel_loss)

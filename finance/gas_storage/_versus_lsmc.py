@@ -11,7 +11,7 @@ from snapo_ode import InputError, agreement
 from ._certificate import duality_gaps, intrinsic_schedule, lsmc_deltas
 from ._inputs import StorageInputs
 from ._lsmc import perfect_foresight, value_lsmc
-from ._model import spot_prices, stochastic_scene
+from ._model import largest_flows, spot_prices, stochastic_scene
 from ._results import LSMCComparison, standard_error
 from ._study import StudySettings, run_study
 
@@ -29,9 +29,7 @@ def check_grid_trades(inputs: StorageInputs, nodes: int) -> None:
     (after fuel loss) or withdrawal: a day's trade would then end between two levels of the
     continuation values, which interpolation alone would price."""
     spacing = float(inputs.capacity) / (nodes - 1)
-    kept = 1.0 - float(inputs.fuel_loss)
-    largest = {"injection": kept * float(inputs.max_injection) * float(np.max(np.asarray(inputs.injection_ratchet)[:, 1])),
-               "withdrawal": float(inputs.max_withdrawal) * float(np.max(np.asarray(inputs.withdrawal_ratchet)[:, 1]))}
+    largest = dict(zip(("injection", "withdrawal"), largest_flows(inputs, stochastic_scene())))
     verbs = {"injection": "inject", "withdrawal": "withdraw"}
     for flow, amount in largest.items():
         if amount < spacing:
@@ -48,9 +46,7 @@ def check_grid_trades(inputs: StorageInputs, nodes: int) -> None:
 def trading_nodes(inputs: StorageInputs, at_least: int) -> int:
     """The fewest levels, `at_least` or more, whose step is no larger than a day's largest
     injection (after fuel loss) or withdrawal (what `check_grid_trades` asks)."""
-    kept = 1.0 - float(inputs.fuel_loss)
-    smallest = min(kept * float(inputs.max_injection) * float(np.max(np.asarray(inputs.injection_ratchet)[:, 1])),
-                   float(inputs.max_withdrawal) * float(np.max(np.asarray(inputs.withdrawal_ratchet)[:, 1])))
+    smallest = min(largest_flows(inputs, stochastic_scene()))
     return max(at_least, int(np.ceil(float(inputs.capacity) / smallest * (1 + 1e-12))) + 1)
 
 
