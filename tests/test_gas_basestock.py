@@ -129,3 +129,28 @@ def test_a_trained_policy_is_written_and_read_back(tmp_path, key):
     shocks = jax.random.normal(jax.random.key(3), (4, inputs.n_days))
     np.testing.assert_array_equal(gs.simulate(loaded, inputs, scene, sharpness=None, shocks=shocks).value,
                                   gs.simulate(policy, inputs, scene, sharpness=None, shocks=shocks).value)
+
+
+def test_a_policy_that_reads_the_curve_is_written_and_read_back(tmp_path, key):
+    from finance.gas_storage._family import family
+
+    case = family(1)[0]  # weekly-slow-365: a weekend discount on a seasonal curve
+    inputs = gs.make_inputs(case.facility, case.curve, volatility=1.0, mean_reversion=18.25)
+    scene = gs.stochastic_scene()
+    lp = gs.solve_intrinsic(inputs, gs.deterministic_scene())
+    policy = gs.make_policy(scene, inputs, key=key, head="basestock", spot_scale=0.3, intrinsic_inventory=lp.inventory)
+    features = np.asarray(policy.day_features)
+    assert features.shape == (365, 5)
+    np.testing.assert_allclose(features.mean(0), 0, atol=1e-12)
+    np.testing.assert_allclose(features.std(0), 1, rtol=1e-12)
+    # The weekend discount shows in the spread to tomorrow: Friday's is negative, Sunday's positive.
+    friday, sunday = np.arange(365) % 7 == 4, np.arange(365) % 7 == 6
+    assert features[friday, 1].max() < 0 < features[sunday, 1].min()
+    policy = eqx.tree_at(lambda p: p.mlp.layers[-1].weight, policy,
+                         jax.random.normal(key, policy.mlp.layers[-1].weight.shape))
+    path = tmp_path / "policy.eqx"
+    path.write_bytes(gs.storage_policy_bytes(policy))
+    shocks = jax.random.normal(jax.random.key(3), (4, inputs.n_days))
+    np.testing.assert_array_equal(gs.simulate(gs.load_storage_policy(path), inputs, scene, sharpness=None,
+                                              shocks=shocks).value,
+                                  gs.simulate(policy, inputs, scene, sharpness=None, shocks=shocks).value)

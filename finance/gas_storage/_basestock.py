@@ -73,12 +73,14 @@ class BasestockPolicy(eqx.Module):
 
     **Fields:** `mlp` (tanh); `warm_start`: per-day mid-point logits, shape (T,), not trained
     (the intrinsic LP's inventory path, so that the untrained policy follows the intrinsic
-    schedule); `spot_scale` (the factor's stationary standard deviation) and `mean_log_price`,
+    schedule); `day_features`: what the contract offers each day beside the calendar, shape
+    (T, K), not trained (`curve_features`; K = 0 reads the calendar alone); `spot_scale` (the factor's stationary standard deviation) and `mean_log_price`,
     not trained; `harmonics`, `degree` (static).
     """
 
     mlp: eqx.nn.MLP
     warm_start: jax.Array
+    day_features: jax.Array
     spot_scale: jax.Array
     mean_log_price: jax.Array
     harmonics: int = eqx.field(static=True)
@@ -87,7 +89,7 @@ class BasestockPolicy(eqx.Module):
     def logits(self, calendar: jax.Array, log_curve: jax.Array, log_spot_ratio: jax.Array | None) -> jax.Array:
         """Target logits (mid-point, band), shape (paths, T, 2), or (T, 2) when `log_spot_ratio`
         (paths, T) is None; `calendar` (T, C), `log_curve` = log F_t (T,)."""
-        calendar = calendar.astype(self.warm_start.dtype)
+        calendar = jnp.concatenate([calendar, jax.lax.stop_gradient(self.day_features)], -1).astype(self.warm_start.dtype)
         start = jnp.stack([jax.lax.stop_gradient(self.warm_start), jnp.full_like(self.warm_start, BAND_INIT)], -1)
         scale = jax.lax.stop_gradient(self.spot_scale)
         if self.degree is None:
@@ -132,14 +134,41 @@ def intrinsic_warm_start(inputs: StorageInputs, scene: Scene, intrinsic_inventor
     return jnp.asarray(np.log(scaled / (1 - scaled)))
 
 
+CURVE_FEATURES = 5
+
+
+def curve_features(inputs: StorageInputs, intrinsic_inventory) -> jax.Array:
+    """What the curve and the intrinsic schedule say of each day, shape (T, CURVE_FEATURES), each
+    column standardised over the days: the price level F_t, the spreads to tomorrow and to the
+    next week's mean, the spread from last week's mean (weekly shapes, holidays and spikes show in
+    them), and the intrinsic schedule's net flow that day as a share of the largest flow. Fixed
+    when the policy is made (a policy is a function of the contract it was trained on)."""
+    curve = np.asarray(inputs.forward_curve, dtype=float)
+    days = curve.size
+    unit = np.mean(np.abs(curve))
+    padded = np.concatenate([np.full(7, curve[0]), curve, np.full(7, curve[-1])])
+    window = np.lib.stride_tricks.sliding_window_view(padded, 7)
+    next_week, last_week = window[8:8 + days].mean(1), window[:days].mean(1)
+    tomorrow = np.concatenate([curve[1:], curve[-1:]])
+    flow = np.diff(np.asarray(intrinsic_inventory, dtype=float)) / max(float(inputs.max_injection),
+                                                                      float(inputs.max_withdrawal))
+    columns = np.stack([curve / unit, (tomorrow - curve) / unit, (next_week - curve) / unit, (curve - last_week) / unit,
+                        flow], -1)
+    spread = columns.std(0)
+    return jnp.asarray((columns - columns.mean(0)) / np.where(spread > 1e-12, spread, 1.0))
+
+
 def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: int = 32, depth: int = 2,
                           spot_scale: float = 1.0, harmonics: int = BASESTOCK_HARMONICS,
                           degree: int | None = PRICE_DEGREE, intrinsic_inventory=None,
-                          output_gain: float = 0.1) -> BasestockPolicy:
+                          output_gain: float = 0.1, read_curve: bool = True) -> BasestockPolicy:
     """A `BasestockPolicy`; with `intrinsic_inventory` (the LP's V_t, shape (T+1,)) it starts on
-    the intrinsic schedule, else at mid-range. `spot_scale`: the factor's stationary standard
+    the intrinsic schedule, else at mid-range, and with `read_curve` its network also reads
+    `curve_features` (which need the intrinsic schedule). `spot_scale`: the factor's stationary standard
     deviation, the unit of x. In the deterministic scene the price polynomial has degree 0."""
-    n_calendar = 1 + 2 * harmonics
+    day_features = (curve_features(inputs, intrinsic_inventory) if read_curve and intrinsic_inventory is not None
+                    else jnp.zeros((inputs.n_days, 0)))
+    n_calendar = 1 + 2 * harmonics + day_features.shape[1]
     stochastic = scene.has("stochastic_spot")
     if degree is None:
         mlp = eqx.nn.MLP(n_calendar + (2 if stochastic else 0), 2, width, depth, activation=jnp.tanh, key=key)
@@ -153,7 +182,8 @@ def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: in
     warm = (jnp.zeros(inputs.n_days) if intrinsic_inventory is None
             else intrinsic_warm_start(inputs, scene, intrinsic_inventory))
     mean_log_price = jnp.mean(jnp.log(inputs.forward_curve))
-    return BasestockPolicy(mlp, warm, jnp.asarray(spot_scale, dtype=float), mean_log_price, harmonics, degree)
+    return BasestockPolicy(mlp, warm, day_features, jnp.asarray(spot_scale, dtype=float), mean_log_price, harmonics,
+                           degree)
 
 
 def basestock_targets(policy: BasestockPolicy, inputs: StorageInputs, scene: Scene, log_spot_ratio,

@@ -71,6 +71,7 @@ def storage_policy_bytes(policy) -> bytes:
     mlp = policy.mlp
     header = {"head": "basestock", "in_size": mlp.in_size, "out_size": mlp.out_size, "width": mlp.width_size,
               "depth": mlp.depth, "n_days": int(policy.warm_start.shape[0]), "harmonics": policy.harmonics,
+              "day_features": int(policy.day_features.shape[1]),
               "degree": policy.degree}
     buffer = io.BytesIO()
     eqx.tree_serialise_leaves(buffer, policy)
@@ -85,7 +86,8 @@ def load_storage_policy(path: str | os.PathLike):
         return load_policy(path)
     mlp = eqx.nn.MLP(header["in_size"], header["out_size"], header["width"], header["depth"], activation=jnp.tanh,
                      key=jax.random.key(0))
-    like = BasestockPolicy(mlp, jnp.zeros(header["n_days"]), jnp.zeros(()), jnp.zeros(()), header["harmonics"],
+    like = BasestockPolicy(mlp, jnp.zeros(header["n_days"]), jnp.zeros((header["n_days"], header.get("day_features", 0))),
+                           jnp.zeros(()), jnp.zeros(()), header["harmonics"],
                            header["degree"])
     with open(path, "rb") as handle:
         handle.readline()
