@@ -159,6 +159,7 @@ class LSMCComparison(Result):
     dual_bounds_continuous_policies: bool
     dual_grid_nodes: int
     dual_relaxation: float
+    dual_paths: int
     dual_seconds: float
     snapo_value_control_variate: float
     snapo_value_control_variate_se: float
