@@ -1,8 +1,6 @@
 """Policy training: an optax loop with progress, early stopping, a NaN guard, and atomic
 checkpoints of the whole training state from which an interrupted run resumes exactly."""
 
-import io
-import json
 import math
 import os
 import pathlib
@@ -16,7 +14,8 @@ import jax.numpy as jnp
 import optax
 from tqdm.auto import tqdm
 
-from ._io import atomic_write_bytes
+from ._checkpoint import check_same_run, load_checkpoint, save_checkpoint
+from ._fingerprint import run_fingerprint
 from ._validation import InputError
 
 
@@ -57,33 +56,6 @@ def default_optimizer(learning_rate: float, steps: int, clip_norm: float) -> opt
     return optax.chain(optax.clip_by_global_norm(clip_norm), optax.adam(schedule))
 
 
-def save_checkpoint(path: str | os.PathLike, best_params, info: dict, resume_state=None) -> None:
-    """Write a checkpoint atomically, as one file: `info` (a JSON line), the `best_params`
-    (equinox-serialised), and the `resume_state` (the current parameters and optimizer state, which
-    a resumed run continues from)."""
-    buffer = io.BytesIO()
-    eqx.tree_serialise_leaves(buffer, best_params)
-    if resume_state is not None:
-        eqx.tree_serialise_leaves(buffer, resume_state)
-    atomic_write_bytes(path, json.dumps(info, allow_nan=False).encode() + b"\n" + buffer.getvalue())
-
-
-def load_checkpoint(path: str | os.PathLike, like, resume_like=None):
-    """Read a checkpoint written by `save_checkpoint`: `(best_params, info)` shaped like `like`,
-    or with `resume_like` `(best_params, info, resume_state)`.
-
-    **Raises:** `InputError` naming the file when it is not such a checkpoint."""
-    try:
-        with open(path, "rb") as handle:
-            info = json.loads(handle.readline())
-            best = eqx.tree_deserialise_leaves(handle, like)
-            if resume_like is None:
-                return best, info
-            return best, info, eqx.tree_deserialise_leaves(handle, resume_like)
-    except (OSError, ValueError, RuntimeError, KeyError, TypeError) as error:
-        raise InputError(f"checkpoint {str(path)!r} cannot be read ({error}); delete it or drop --resume.") from None
-
-
 def train(
     loss_fn: Callable,
     params,
@@ -103,6 +75,7 @@ def train(
     description: str = "training",
     pass_step: bool = False,
     keep_best: bool = True,
+    fingerprint: dict | None = None,
 ) -> TrainResult:
     """Minimise `loss_fn` over the inexact array leaves of `params`.
 
@@ -126,13 +99,19 @@ def train(
       interrupted or fails, and at the end.
     - `resume`: continue from `checkpoint_path` when it exists; the resumed run gives the same
       result as one that was never interrupted (same steps, same keys).
+    - `fingerprint`: what defines the run besides the arguments here (name -> value: the inputs,
+      the settings, the model; see `run_fingerprint`). The checkpoint records it with the
+      initial `params`, `steps`, `learning_rate`, `clip_norm`, `key`, `patience`, `min_delta`,
+      `keep_best`, `pass_step` and the package versions, and `resume` refuses a checkpoint whose
+      record differs, naming what differs. (A custom `optimizer` is not recorded: put its
+      settings in `fingerprint`.)
     - `callback(step, loss, metrics)`: called after every step (raising in it interrupts the run,
       which still writes its checkpoint).
 
     The result is deterministic for given inputs and key.
 
     **Raises:** `TrainingDiverged` naming the step whose loss was not finite; `InputError` for a
-    checkpoint of another run (a different `steps`) or an unreadable one.
+    checkpoint of another run (a different fingerprint) or an unreadable one.
     """
     if not isinstance(steps, int) or steps < 1:
         raise InputError(f"steps = {steps!r} must be a positive integer.")
@@ -141,13 +120,15 @@ def train(
     optimizer = optimizer or default_optimizer(learning_rate, steps, clip_norm)
     opt_state = optimizer.init(eqx.filter(params, eqx.is_inexact_array))
     best_params = params
+    run = run_fingerprint({
+        **(fingerprint or {}), "initial parameters": eqx.filter(params, eqx.is_array),
+        "training settings": (steps, learning_rate, clip_norm, patience, min_delta, keep_best, pass_step,
+                              optimizer is None), "key": key})
     info = {"next_step": 0, "steps": steps, "history": {"loss": []}, "best_loss": None, "since_best": 0,
-            "stopped_early": False}
+            "stopped_early": False, "fingerprint": run}
     if resume and checkpoint_path is not None and pathlib.Path(checkpoint_path).exists():
         best_params, saved, (params, opt_state) = load_checkpoint(checkpoint_path, params, (params, opt_state))
-        if saved.get("steps") != steps:
-            raise InputError(f"checkpoint {str(checkpoint_path)!r} is of a run with steps = {saved.get('steps')}, "
-                             f"not {steps}: resume with the same settings, or delete it.")
+        check_same_run(checkpoint_path, saved, run)
         info = saved
 
     @eqx.filter_jit
@@ -171,7 +152,7 @@ def train(
             save_checkpoint(checkpoint_path, kept(), {
                 "next_step": next_step, "steps": steps, "history": history,
                 "best_loss": None if math.isinf(best_loss) else best_loss, "since_best": since_best,
-                "stopped_early": stopped_early}, (params, opt_state))
+                "stopped_early": stopped_early, "fingerprint": run}, (params, opt_state))
 
     bar = tqdm(total=steps, initial=first, desc=description, disable=not progress, leave=False)
     try:

@@ -1,6 +1,7 @@
 """Training: converges on a problem with a known optimum, is deterministic, stops early, guards
 against NaN naming the step, and checkpoints atomically."""
 
+import os
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -107,11 +108,66 @@ def test_an_interrupted_run_resumed_equals_an_uninterrupted_one(tmp_path):
     resumed = snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, checkpoint_path=path, resume=True, **settings)
     np.testing.assert_array_equal(resumed.params["x"], whole.params["x"])
     assert resumed.history["loss"] == whole.history["loss"] and resumed.best_loss == whole.best_loss
-    with pytest.raises(snapo_ode.InputError, match="steps = 40"):
+    with pytest.raises(snapo_ode.InputError, match="its training settings differ"):
         snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, checkpoint_path=path, resume=True,
                         **{**settings, "steps": 50})
+
+
+def test_resume_refuses_the_checkpoint_of_another_run_naming_what_differs(tmp_path):
+    path = tmp_path / "run.ckpt"
+    settings = dict(steps=5, progress=False, checkpoint_path=path)
+    snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, key=jax.random.key(3), fingerprint={"inputs": np.ones(3)},
+                    **settings)
+    again = dict(key=jax.random.key(3), fingerprint={"inputs": np.ones(3)}, resume=True, **settings)
+    assert snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, **again).steps_run == 5  # its own run resumes
+    for change, named in (({"fingerprint": {"inputs": np.array([1.0, 1.0, 2.0])}}, "its inputs differ"),
+                          ({"key": jax.random.key(4)}, "its key differ"),
+                          ({"fingerprint": {"inputs": np.ones(3), "seed": 1}}, "its seed differ")):
+        with pytest.raises(snapo_ode.InputError, match=named):
+            snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, **{**again, **change})
+    with pytest.raises(snapo_ode.InputError, match="initial parameters differ"):
+        snapo_ode.train(noisy_loss, {"x": jnp.ones(2)}, **again)
+
+
+@pytest.mark.parametrize("header, message", [
+    (b"not json", "not a checkpoint's JSON header"),
+    (b'{"next_step": 1}', "steps: Field required"),
+    (b'{"next_step": "1", "steps": 5, "history": {"loss": [1.0]}, "best_loss": null, "since_best": 0, '
+     b'"stopped_early": false}', "next_step = '1': Input should be a valid integer"),
+    (b'{"next_step": 9, "steps": 5, "history": {"loss": []}, "best_loss": null, "since_best": 0, '
+     b'"stopped_early": false}', "exceeds steps"),
+    (b'{"next_step": 1, "steps": 5, "history": {"loss": []}, "best_loss": null, "since_best": 0, '
+     b'"stopped_early": false}', "must all equal next_step"),
+])
+def test_a_malformed_checkpoint_is_a_one_line_input_error(tmp_path, header, message):
+    path = tmp_path / "run.ckpt"
+    path.write_bytes(header + b"\n" + b"\x00" * 16)
+    with pytest.raises(snapo_ode.InputError, match=message) as caught:
+        snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=5, progress=False, checkpoint_path=path, resume=True)
+    assert "\n" not in str(caught.value) and str(path) in str(caught.value)
+
+
+def test_a_truncated_checkpoint_is_an_input_error(tmp_path):
+    path = tmp_path / "run.ckpt"
+    snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=5, progress=False, checkpoint_path=path)
+    path.write_bytes(path.read_bytes()[:-20])
+    with pytest.raises(snapo_ode.InputError, match="cannot be read"):
+        snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=5, progress=False, checkpoint_path=path, resume=True)
 
 
 def test_rejects_bad_step_count():
     with pytest.raises(snapo_ode.InputError, match="steps"):
         snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=0)
+
+
+def test_a_fingerprint_is_the_same_in_every_process():
+    import subprocess
+    import sys
+
+    script = ("import equinox as eqx, numpy as np, snapo_ode\n"
+              "class M(eqx.Module):\n    names: frozenset = eqx.field(static=True)\n    x: np.ndarray\n"
+              "print(snapo_ode.digest_of({'m': M(frozenset('abcdefgh'), np.arange(3.0)), 's': {'u', 'v', 'w'},"
+              " 'f': print}))")
+    digests = {subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True,
+                              env={**os.environ, "PYTHONHASHSEED": seed}).stdout for seed in ("1", "2", "3")}
+    assert len(digests) == 1

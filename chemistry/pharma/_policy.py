@@ -136,7 +136,8 @@ def train_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters 
     loss = profile_objective(chain, cpps, physical, penalty_weight=penalty_weight, sharpness=sharpness)
     trained = train(loss, profiles, steps=steps, learning_rate=learning_rate, progress=progress,
                     description="pharma profiles", checkpoint_path=checkpoint_path, checkpoint_every=10,
-                    resume=resume)
+                    resume=resume, fingerprint={"chain": chain, "cpps": cpps, "physical": physical,
+                                                "objective": (penalty_weight, sharpness)})
     settings = dict(penalty_weight=penalty_weight, sharpness=sharpness)
     samples = jnp.linspace(0.0, 1.0, 11)
     return ProfileStudy(

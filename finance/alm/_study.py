@@ -149,7 +149,7 @@ def train_policy(study: Study, *, steps: int, n_paths: int = 256, key=None,
     result = snapo_ode.train(loss, initial, steps=steps, key=jax.random.fold_in(key, 1),
                              learning_rate=learning_rate, progress=progress,
                              checkpoint_path=checkpoint_path, checkpoint_every=50, resume=resume,
-                             description="alm policy")
+                             description="alm policy", fingerprint={"fund": study, "train_paths": n_paths})
     return result.params, result
 
 

@@ -50,7 +50,8 @@ def run_family_benchmark(out: pathlib.Path, *, paths: int, cases: int | None, se
     """Value each generated case (`_family.family(cases, seed)`) at B&dJ's mean reversion and each
     of `volatilities` (B&dJ's low and high), `paths` fresh paths (LSMC fitted on as many others,
     on `nodes` levels or as many more as a slow facility's daily flow needs);
-    print the table and write `bench_gas_family.csv` / `.json` under `out`."""
+    print the table and write `bench_gas_family.csv` / `.json` under `out`, after every row (so a
+    long run that stops keeps the rows it finished)."""
     rows, results = [], {}
     start = time.perf_counter()
     for case in family(cases, seed):
@@ -71,11 +72,11 @@ def run_family_benchmark(out: pathlib.Path, *, paths: int, cases: int | None, se
                              "lsmc_out_of_sample", "snapo_out_of_sample", "snapo_minus_lsmc", "snapo_minus_lsmc_se",
                              "dual_upper_bound", "dual_relaxation", "snapo_gap", "lsmc_gap", "snapo_seconds")}})
             print(format_table(rows[-1:], COLUMNS), flush=True)
-    met = sum(row["goals"] == "all" for row in rows)
+            met = sum(row["goals"] == "all" for row in rows)
+            written = write_table(out, "bench_gas_family", rows, {"results": results, "paths": paths, "seed": seed,
+                                                                  "nodes": nodes, "goals_met": met})
     print(f"\nGas-storage family ({len(rows)} rows, seed {seed}, {paths:,} fresh evaluation paths, "
           f"{time.perf_counter() - start:.0f} s): every goal met in {met} of {len(rows)}")
     print(format_table(rows, COLUMNS))
-    written = write_table(out, "bench_gas_family", rows, {"results": results, "paths": paths, "seed": seed,
-                                                          "nodes": nodes, "goals_met": met})
     print(f"written: {', '.join(map(str, written))}")
     return rows

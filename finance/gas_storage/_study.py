@@ -87,6 +87,12 @@ class StudySettings:
         check_count("repeats", self.repeats)
 
     @property
+    def training(self) -> tuple:
+        """The fields that define the training (its checkpoint's fingerprint): not the evaluation's."""
+        return (self.stochastic, self.head, self.width, self.train_paths, self.seed, self.train_steps,
+                self.learning_rate, self.sharpness, self.hard_training, self.train_float32)
+
+    @property
     def training_sharpness(self) -> float | None:
         """The sharpness of training and of the sensitivities: None (exact) with `hard_training`."""
         return None if self.hard_training else self.sharpness
@@ -187,7 +193,9 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
                               key=train_key if settings.stochastic else None,
                               progress=settings.progress, description="training storage policy",
                               checkpoint_path=settings.checkpoint_path, checkpoint_every=50, resume=settings.resume,
-                              keep_best=not settings.stochastic)  # with fresh paths each step, the best is a lucky batch
+                              keep_best=not settings.stochastic,  # with fresh paths each step, the best is a lucky batch
+                              fingerprint={"inputs": inputs, "effects": sorted(scene.active),
+                                           "settings": settings.training})
     train_wall = time.perf_counter() - start
     policy = trained.params
 
