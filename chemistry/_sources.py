@@ -7,8 +7,9 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ruamel.yaml import YAML, YAMLError
+from ruamel.yaml.events import AliasEvent
 
-from snapo_ode import InputError
+from snapo_ode import InputError, read_text
 
 from ._units import UnitSystem
 
@@ -41,22 +42,33 @@ def naming(label: str):
 def load(path: Path) -> Source:
     """The `Source` of the YAML file at `path`.
 
-    **Raises:** `InputError` for a missing file, invalid YAML or non-UTF-8 text, or a document
-    that is not a mapping."""
+    **Raises:** `InputError` for a missing or oversized file, invalid YAML or non-UTF-8 text, a
+    YAML alias (`refuse_aliases`), or a document that is not a mapping."""
     if not path.is_file():
         raise InputError(f"mechanism path {str(path)!r} is not a file.")
-    # The round-trip loader keeps line numbers, which unsupported-reaction errors cite; reading
-    # from the open file makes its errors name the file.
+    text = read_text(path, "mechanism")
+    # The round-trip loader keeps line numbers, which unsupported-reaction errors cite.
     try:
-        with open(path, encoding="utf-8") as handle:
-            document = YAML(typ="rt").load(handle)
+        refuse_aliases(path, text)
+        document = YAML(typ="rt").load(text)
     except YAMLError as error:
-        raise InputError(f"mechanism file {path}: not valid YAML: {error}") from None
-    except UnicodeDecodeError as error:
-        raise InputError(f"mechanism file {path}: not UTF-8 text ({error}).") from None
+        raise InputError(f"mechanism file {path}: not valid YAML: {' '.join(str(error).split())}") from None
+    except RecursionError:
+        raise InputError(f"mechanism file {path}: nested too deeply to read.") from None
     if not isinstance(document, dict):
         raise InputError(f"mechanism file {path}: expected a YAML mapping with a 'phases' section.")
     return Source(path, document, UnitSystem(document.get("units")))
+
+
+def refuse_aliases(path: Path, text: str) -> None:
+    """Raise `InputError` (file:line) at the first YAML alias (`*name`) of `text`: Cantera expands
+    aliases wherever they are, even under a key it ignores, so ten nested lines of them (a
+    "billion laughs") fill the memory. Mechanism files do not need them: write the content out."""
+    for event in YAML(typ="rt").parse(text):
+        if isinstance(event, AliasEvent):
+            raise InputError(f"mechanism file {path}:{event.start_mark.line + 1}: the YAML alias *{event.anchor} is "
+                             "refused (aliases can expand to gigabytes when Cantera reads the file); write the "
+                             "aliased content out in full.")
 
 
 def _data_directories() -> list[Path]:

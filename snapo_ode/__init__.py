@@ -11,6 +11,7 @@ from ._lazy import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "read_accuracy", "timed_point", "write_accuracy"),
     "._config": ("ConfigurationError", "configure", "default_cache_dir", "require_float64"),
+    "._cache_trust": ("CacheUnavailable",),
     "._distributed": ("SAMPLES", "check_divisible", "generate_sharded", "initialize", "is_writer", "mesh_of",
                       "per_sample", "sample_mean", "sample_mesh", "spec", "start", "to_host", "use_cpu_devices"),
     "._effects": ("EffectCatalogue", "Scene"),
@@ -41,7 +42,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._training": ("TrainingDiverged", "TrainResult", "default_optimizer", "train"),
     "._checkpoint": ("CheckpointInfo", "load_checkpoint", "save_checkpoint"),
     "._fingerprint": ("digest_of", "package_versions", "run_fingerprint"),
-    "._schema": ("read_text", "strict_json", "validate"),
+    "._schema": ("DECIMAL", "STRICT_SCHEMA", "read_text", "strict_json", "validate"),
     "._validation": ("InputError", "check_choice", "check_count", "check_finite", "check_increasing",
                      "check_range", "check_scalar"),
     "._verification": ("DEFAULT_RELATIVE_STEP", "Agreement", "BumpComparison", "agreement", "bump_and_revalue",

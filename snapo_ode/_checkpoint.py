@@ -12,7 +12,7 @@ import pydantic
 
 from ._fingerprint import differences
 from ._io import atomic_write_bytes
-from ._schema import STRICT, validate
+from ._schema import STRICT_SCHEMA, validate
 from ._validation import InputError
 
 MAX_HEADER_BYTES = 64 * 2**20
@@ -23,7 +23,7 @@ class CheckpointInfo(pydantic.BaseModel):
     `history` (per step, the loss and each metric), `best_loss`, `since_best` (steps since it),
     `stopped_early`, and `fingerprint` (part -> digest, see `run_fingerprint`)."""
 
-    model_config = STRICT
+    model_config = STRICT_SCHEMA
     next_step: pydantic.NonNegativeInt
     steps: pydantic.PositiveInt
     history: dict[str, list[float]]

@@ -13,6 +13,8 @@ import pathlib
 
 import jax
 
+from ._cache_trust import CacheUnavailable, directory_secret, install
+
 CACHE_ENV = "SNAPO_CACHE_DIR"
 
 
@@ -35,13 +37,26 @@ def configure(cache_dir: str | os.PathLike | None = None, *, cache: bool = True)
     `cache_dir` (default `default_cache_dir()`); returns the cache directory (or None).
 
     Every compiled executable is cached, however quick its compile, so that a second run of the
-    same job compiles nothing. Call it before the first computation; calling it again is
-    harmless."""
+    same job compiles nothing. The directory is created private (mode 0700) and trusted only so
+    far (`snapo_ode._cache_trust`): one that others can write is refused, and every entry is
+    sealed to its key, so a corrupt or swapped entry is rebuilt, never run. Call it before the
+    first computation; calling it again is harmless.
+
+    **Raises:** `CacheUnavailable` (an `OSError`) saying why and what to do, when the directory
+    cannot be created or written, or others can write it (float64 is on by then)."""
     jax.config.update("jax_enable_x64", True)
     if not cache:
         return None
     path = pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    path.mkdir(parents=True, exist_ok=True)
+    try:
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        directory_secret(path)
+    except CacheUnavailable:
+        raise
+    except OSError as error:
+        raise CacheUnavailable(f"the compilation cache {str(path)!r} cannot be used ({error.strerror or error}): "
+                               f"set {CACHE_ENV} to a writable directory of your own.") from None
+    install()
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)

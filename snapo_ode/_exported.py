@@ -20,8 +20,8 @@ An entry's key (`snapo_ode._export_keys`) is everything that shapes the program:
 
 An argument that cannot be described the same way in every process (a closure, an object
 without a structural description) is refused with `Unkeyable` rather than keyed by its address.
-A file is written atomically, carries the SHA-256 of its program, and one that is corrupt or does
-not deserialise is rebuilt with a warning, never trusted; a program that cannot be exported (a
+A file is written atomically and sealed to its key (`snapo_ode._cache_trust`); one that is corrupt,
+another key's, or does not deserialise is rebuilt with a warning, never trusted; a program that cannot be exported (a
 host callback, an unstable custom call) runs through `jax.jit` as before, with a warning.
 
 Runtime checks: export refuses host callbacks, so an `equinox.error_if` compiled as a callback
@@ -34,7 +34,6 @@ differentiated program, custom_vjp and checkpointed loops already lowered.
 
 import concurrent.futures
 import functools
-import hashlib
 import os
 import pathlib
 import threading
@@ -48,9 +47,9 @@ import numpy as np
 
 from . import _export_helper
 from ._export_keys import _ARRAYS, Unkeyable, _packages, describe, entry_path, environment
-from ._io import atomic_write_bytes
+from ._cache_trust import directory_secret, unseal, write_sealed
 
-_MAGIC = b"snapo-exported 1\n"
+_MAGIC = b"snapo-exported 2\n"
 QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 1}
 """XLA options for a program whose compiles cost more than its runs: on a CPU, XLA's elemental
 emitters instead of its fusion emitters, and LLVM's optimisation at level 1 (of 3; XLA's default
@@ -73,6 +72,10 @@ _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deseri
 _PREFETCHED: dict[pathlib.Path, concurrent.futures.Future] = {}  # entry -> its reading, under way
 
 
+def _secret() -> bytes:
+    return directory_secret(jax.config.jax_compilation_cache_dir)
+
+
 def _read(path: pathlib.Path):
     """The deserialised program at `path`; None if absent, or corrupt (then with a warning)."""
     try:
@@ -80,12 +83,12 @@ def _read(path: pathlib.Path):
     except FileNotFoundError:
         return None
     try:
-        if not data.startswith(_MAGIC + b"sha256 "):
+        program = unseal(_secret(), path.name, data)
+        if program is None:
+            raise ValueError("seal check failed: truncated, altered, or another entry's")
+        if not program.startswith(_MAGIC):
             raise ValueError("not an exported program")
-        checksum, _, program = data[len(_MAGIC + b"sha256 "):].partition(b"\n")
-        if hashlib.sha256(program).hexdigest().encode() != checksum:
-            raise ValueError("checksum mismatch: truncated or altered")
-        return jax.export.deserialize(bytearray(program))
+        return jax.export.deserialize(bytearray(program[len(_MAGIC):]))
     except Exception as error:  # noqa: BLE001 - any failure means: rebuild, never trust
         warnings.warn(f"snapo: exported program {path} is unreadable ({error}); tracing it again", stacklevel=4)
         return None
@@ -102,8 +105,7 @@ def _export(path: pathlib.Path, flat: Callable, leaves, name: str):
                       "in every process", stacklevel=5)
         return None
     path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, _MAGIC + b"sha256 " + hashlib.sha256(serialised).hexdigest().encode() + b"\n"
-                       + serialised)
+    write_sealed(_secret(), path, _MAGIC + serialised)
     return jax.export.deserialize(bytearray(serialised))
 
 

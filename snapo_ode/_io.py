@@ -11,6 +11,10 @@ command form a set that a reader sees old or new, never mixed.
 - `publish_directory`: a whole directory (a report): written as a temporary sibling and swapped
   in, so the old directory or the new one is there, never a mix. Only a directory this function
   wrote before (it holds `MANIFEST`) or an empty one is replaced.
+
+Symbolic links are written through (`output_target`): the link stays and its target gets the new
+content, atomically. A target that exists and is not a regular file (a device, a pipe, a socket)
+is refused with `InputError`, never replaced.
 """
 
 import hashlib
@@ -33,6 +37,19 @@ def _umask() -> int:
     return mask
 
 
+def output_target(path: str | os.PathLike, what: str = "output") -> pathlib.Path:
+    """The file a write to `path` replaces: `path` with every symbolic link followed.
+
+    **Raises:** `InputError` naming `what` (e.g. "--json") when that file exists and is not a
+    regular file (a directory, a device such as /dev/null, a pipe or a socket)."""
+    target = pathlib.Path(os.path.realpath(path))
+    if target.exists() and not target.is_file():
+        kind = "a directory" if target.is_dir() else "not a regular file (a device, pipe or socket)"
+        raise InputError(f"{what} = {str(path)!r}{f' (-> {str(target)!r})' if target != pathlib.Path(path) else ''} "
+                         f"is {kind}; give the path of a file to write.")
+    return target
+
+
 def _write_temporary(path: pathlib.Path, data: bytes) -> pathlib.Path:
     """`data` in a new temporary file beside `path`, flushed to disk, with the mode `path` has
     (or the umask allows); returns the temporary path."""
@@ -53,7 +70,7 @@ def _write_temporary(path: pathlib.Path, data: bytes) -> pathlib.Path:
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> pathlib.Path:
     """Write `data` to `path` through a temporary file in the same directory and `os.replace`."""
-    path = pathlib.Path(path)
+    path = output_target(path)
     tmp = _write_temporary(path, data)
     try:
         os.replace(tmp, path)
@@ -89,7 +106,7 @@ def publish(files: Mapping[str | os.PathLike, bytes]) -> list[pathlib.Path]:
     temporaries: list[tuple[pathlib.Path, pathlib.Path]] = []
     try:
         for path, data in files.items():
-            path = pathlib.Path(path)
+            path = output_target(path)
             temporaries.append((_write_temporary(path, data), path))
         for tmp, path in temporaries:
             os.replace(tmp, path)
@@ -129,7 +146,7 @@ def publish_directory(out: str | os.PathLike, files: Mapping[str, bytes]) -> lis
     """Write `files` (name -> bytes) as the directory `out`, with a MANIFEST.json (the SHA-256 of
     each file): built as a temporary sibling, then swapped in for the old directory, so a reader
     sees the old set or the new one. `out` must pass `check_replaceable_directory`."""
-    out = check_replaceable_directory(out)
+    out = pathlib.Path(os.path.realpath(check_replaceable_directory(out)))  # a link to it stays a link
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = pathlib.Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp"))
     try:

@@ -18,9 +18,9 @@ import pydantic
 from ._validation import InputError
 
 MAX_FILE_BYTES = 64 * 2**20  # a user file larger than this is refused before it is parsed
-STRICT = pydantic.ConfigDict(strict=True, extra="forbid", frozen=True)
+STRICT_SCHEMA = pydantic.ConfigDict(strict=True, extra="forbid", frozen=True)
 # A decimal number as JSON and CSV write one: no '_' separators, no 'nan', 'inf' or hex.
-NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 
 
 def read_text(path: str | os.PathLike, what: str, max_bytes: int = MAX_FILE_BYTES) -> str:

@@ -27,8 +27,10 @@ written with the CSV (exit 0), so a long computation is not lost for want of a b
 Verbs that train also get `--checkpoint` and `--resume` (`add_training_options`); verbs whose
 samples split over devices get `--devices N` and the multi-process options (`add_device_options`).
 
-Exit codes: 0 success; 2 a user mistake (`InputError`: a one-line `snapo: error: ...` naming
-the field, the value and what is allowed); 3 a failed solve (`SolverFailed`, with advice).
+Exit codes (`snapo_ode._exits`): 0 success; 2 a user mistake (`InputError`: a one-line `snapo:
+error: ...` naming the field, the value and what is allowed); 3 a failed solve or training; 4 the
+environment (disk full, unwritable or untrusted cache); 130 / 143 interrupted by SIGINT / SIGTERM
+(the training checkpoint saved).
 Heavy imports (JAX, the models) happen inside the handlers, so `snapo --help` stays quick.
 """
 
@@ -38,25 +40,21 @@ import sys
 from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
 
+from ._exits import EXIT_INPUT_ERROR, configure_or_warn, ended
 from ._first_result import add_first_result_bench
 from ._validation import InputError
 
 PLUGIN_GROUP = "snapo_ode.plugins"
 DEFAULT_OUT = pathlib.Path("snapo-out")
-EXIT_INPUT_ERROR = 2
-EXIT_SOLVER_FAILED = 3
-
-
 def check_output_paths(args: argparse.Namespace) -> None:
     """Refuse, before any computation, outputs that could not be written: `--json` naming a
     directory or under an unwritable one, `--out` naming a file; for a report, an `--out` holding
     files that no earlier report wrote (the report replaces its directory whole)."""
-    from ._io import check_replaceable_directory, check_writable_under
+    from ._io import check_replaceable_directory, check_writable_under, output_target
 
     if args.out.exists() and not args.out.is_dir():
         raise InputError(f"--out = {str(args.out)!r} is an existing file; give a directory.")
-    if args.json.is_dir():
-        raise InputError(f"--json = {str(args.json)!r} is a directory; give a file path.")
+    output_target(args.json, "--json")
     check_writable_under(args.json.resolve().parent, "--json")
     check_writable_under(args.out.resolve(), "--out")
     if getattr(args, "report_directory", False):
@@ -296,27 +294,22 @@ def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandL
     if handler is None:
         cli.parser.print_help()
         return EXIT_INPUT_ERROR
-    from ._config import configure
-    from ._ode import SolverFailed
 
-    try:
+    def run() -> int:
         check_output_paths(args)
         if getattr(args, "distributed", False):
             from ._distributed import start
 
             start(args.devices, args.coordinator, args.num_processes, args.process_id)
-        configure()
+        configure_or_warn()
         if getattr(args, "distributed", False):
             from ._distributed import sample_mesh
 
             mesh = sample_mesh(args.devices)
             args.mesh = mesh if mesh.size > 1 else None
         return int(handler(args) or 0)
-    except (InputError, SolverFailed) as error:
-        if args.debug:
-            raise
-        print(f"snapo: error: {' '.join(str(error).split())}", file=sys.stderr)  # one line
-        return EXIT_INPUT_ERROR if isinstance(error, InputError) else EXIT_SOLVER_FAILED
+
+    return ended(run, debug=args.debug, checkpoint=getattr(args, "checkpoint", None))
 
 
 if __name__ == "__main__":

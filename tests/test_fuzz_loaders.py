@@ -1,6 +1,6 @@
 """Malformed inputs end in `InputError` (naming what is wrong) or in a correct load, never in
 another exception: random truncations, type swaps and extreme values fed to the facility JSON,
-forward-curve CSV and mechanism YAML loaders."""
+forward-curve CSV, mechanism YAML and checkpoint loaders."""
 
 import json
 
@@ -86,7 +86,28 @@ def test_mutated_mechanism_yaml(tmp_path, mechanism_lines, data):
 
 
 @pytest.mark.filterwarnings("error::RuntimeWarning")
-def test_a_huge_finite_rate_loads_without_an_overflow_warning():
-    # The reachable inventory overflows to inf, which compares right; NumPy used to warn.
-    inputs = gs.make_inputs({**FACILITY, "max_injection": 1e308}, gs.sample_curve())
-    assert float(inputs.max_injection) == 1e308
+def test_rates_at_the_magnitude_bound_load_without_an_overflow_warning_and_beyond_it_are_refused():
+    inputs = gs.make_inputs({**FACILITY, "max_injection": gs.MAX_QUANTITY}, gs.sample_curve())
+    assert float(inputs.max_injection) == gs.MAX_QUANTITY
+    with pytest.raises(snapo_ode.InputError, match="max_injection = 1e[+]308 is outside the allowed range"):
+        gs.make_inputs({**FACILITY, "max_injection": 1e308}, gs.sample_curve())
+
+
+CHECKPOINT_HEADER = {"next_step": 2, "steps": 5, "history": {"loss": [1.0, 0.5]}, "best_loss": 0.5, "since_best": 0,
+                     "stopped_early": False, "fingerprint": {}}
+
+
+@FUZZ
+@given(field=st.sampled_from(sorted(CHECKPOINT_HEADER)), value=ODD_VALUES, cut=st.integers(0, 400),
+       junk=st.binary(max_size=8))
+def test_checkpoints_with_odd_headers_or_bodies(tmp_path, field, value, cut, junk):
+    """A checkpoint is read like any input: an odd header or a cut body is an InputError."""
+    like = {"x": np.zeros(2)}
+    path = tmp_path / "run.ckpt"
+    snapo_ode.save_checkpoint(path, like, CHECKPOINT_HEADER, (like, like))
+    header, body = path.read_bytes().split(b"\n", 1)
+    odd = json.dumps({**CHECKPOINT_HEADER, field: value}).encode()
+    path.write_bytes(odd + b"\n" + body[:cut] + junk)
+    loaded = loads_or_input_error(lambda: snapo_ode.load_checkpoint(path, like, (like, like)))
+    if loaded is not None:
+        assert loaded[1] == snapo_ode.CheckpointInfo.model_validate(loaded[1]).model_dump()

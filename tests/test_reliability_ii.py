@@ -1,9 +1,18 @@
 """Reliability II (issue 33): no wrong result from a stale checkpoint or a shared cache, no input
 that exhausts memory, every failure a one-line exit 2 (user), 3 (solve) or 4 (environment)."""
 
+import errno
 import json
 import re
+import signal
+import stat
+import subprocess
+import sys
+import time
 
+import pytest
+
+import snapo_ode
 
 from finance import gas_storage as gs
 from snapo_ode.cli import main
@@ -28,3 +37,166 @@ def test_resume_refuses_the_checkpoint_of_another_facility_or_seed(tmp_path, cap
            "--train-paths", "8", "--no-progress", "--out", str(tmp_path / "alm")]
     assert main(alm) == 0
     assert re.search("its [a-z ,]*key[a-z ,]* differ", error_of([*alm, "--seed", "1", "--resume"], capsys))
+
+
+CACHE_SCRIPT = """
+import sys, warnings, jax, jax.numpy as jnp, snapo_ode
+snapo_ode.configure(sys.argv[1])
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    value = float(jax.jit(lambda x: jnp.sum(jnp.sin(x) * float(sys.argv[2])))(jnp.arange(8.0)))
+print(value, sum("failed its seal check" in str(w.message) for w in caught))
+"""
+
+
+def _cached_value(directory, constant):
+    out = subprocess.run([sys.executable, "-c", CACHE_SCRIPT, str(directory), str(constant)], capture_output=True,
+                         text=True, check=True).stdout.split()
+    return float(out[0]), int(out[1])
+
+
+def test_a_swapped_or_corrupt_cache_entry_is_rebuilt_and_replaced(tmp_path):
+    cache = tmp_path / "cache"
+    one, two = _cached_value(cache, 1.0)[0], _cached_value(cache, 2.0)[0]
+    assert stat.S_IMODE(cache.stat().st_mode) == 0o700
+    first, second = sorted(cache.glob("jit__lambda*"))
+    a, b = first.read_bytes(), second.read_bytes()
+    first.write_bytes(b)  # swapped: each a valid entry of the other key
+    second.write_bytes(a)
+    values = {_cached_value(cache, 1.0), _cached_value(cache, 2.0)}
+    assert values == {(one, 1), (two, 1)}  # the right values, each swapped entry refused once
+    assert {_cached_value(cache, 1.0), _cached_value(cache, 2.0)} == {(one, 0), (two, 0)}  # and replaced
+    first.write_bytes(first.read_bytes()[:-5])  # truncated
+    assert _cached_value(cache, 1.0)[1] + _cached_value(cache, 2.0)[1] == 1
+
+
+def test_a_cache_others_can_write_or_that_is_a_file_is_refused(tmp_path, capsys, monkeypatch):
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o777)
+    with pytest.raises(snapo_ode.CacheUnavailable, match="writable by others"):
+        snapo_ode.configure(shared)
+    monkeypatch.setenv("SNAPO_CACHE_DIR", str(shared))
+    assert "chmod go-w" in error_of(["gas", "--train-steps", "1", "--out", str(tmp_path / "o")], capsys, 4)
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    monkeypatch.setenv("SNAPO_CACHE_DIR", str(a_file))
+    assert "set SNAPO_CACHE_DIR to a writable directory" in error_of(
+        ["gas", "--train-steps", "1", "--out", str(tmp_path / "o")], capsys, 4)
+    monkeypatch.delenv("SNAPO_CACHE_DIR")
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setenv("HOME", str(a_file / "home"))  # no cache can be made under a file: a read-only HOME
+    assert main(["gas", "--train-steps", "1", "--no-progress", "--out", str(tmp_path / "o")]) == 0
+    assert "snapo: warning: the compilation cache" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"capacity": "1e6"}, "capacity = '1e6': Input should be a valid number"),
+    ({"fuel_loss": True}, "fuel_loss = True: Input should be a valid number"),
+    ({"capacity": 1e308}, "capacity = 1e+308 is outside the allowed range (0, 1e+12]"),
+    ({"injection_cost": 1e308}, "injection_cost = 1e+308 is outside the allowed range [0, 1e+06]"),
+    ({"rate": float("nan")}, "NaN is not a JSON number"),
+    ({"injection_ratchet": [[0, 1, 2], [1, 1]]}, "injection_ratchet.0 = [0, 1, 2]: List should have at most 2"),
+])
+def test_facility_files_are_read_strictly(tmp_path, change, message):
+    path = tmp_path / "facility.json"
+    path.write_text(json.dumps({**gs.sample_facility(), **change}, indent=1))
+    with pytest.raises(snapo_ode.InputError, match=re.escape(message)):
+        gs.make_inputs(gs.load_facility(path), gs.sample_curve())
+
+
+def test_duplicate_keys_and_deep_nesting_are_refused(tmp_path):
+    text = json.dumps(gs.sample_facility(), indent=1)
+    duplicate = tmp_path / "duplicate.json"
+    duplicate.write_text(text[:-1] + ', "capacity": 5\n}')
+    with pytest.raises(snapo_ode.InputError, match="the key 'capacity' is given twice"):
+        gs.load_facility(duplicate)
+    deep = tmp_path / "deep.json"
+    deep.write_text(text[:-1] + ', "injection_ratchet": ' + "[" * 100_000 + "]" * 100_000 + "\n}")
+    with pytest.raises(snapo_ode.InputError, match="nested too deeply"):
+        gs.load_facility(deep)
+
+
+@pytest.mark.parametrize("price, message", [
+    ("3_2277", "price = '3_2277' is not a decimal number"), ("true", "price = 'true' is not a decimal number"),
+    ("nan", "price = 'nan' is not a decimal number"), ("0x10", "price = '0x10' is not a decimal number"),
+    ("1e20", "forward_curve (price)[0] = 1e+20 is outside the allowed range [-1e+06, 1e+06]"),
+])
+def test_curve_numbers_are_decimals_of_bounded_size(tmp_path, price, message):
+    path = tmp_path / "curve.csv"
+    path.write_text(f"day,price\n0,{price}\n1,3.0\n")
+    with pytest.raises(snapo_ode.InputError, match=re.escape(message)):
+        gs.make_inputs(gs.sample_facility(), gs.load_curve(path))
+
+
+def test_yaml_aliases_are_refused_before_cantera_reads_the_file(tmp_path, capsys):
+    laughs = tmp_path / "laughs.yaml"
+    lines = ['a: &a ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    lines += [f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]" for a, b in zip("abcdefgh", "bcdefghi")]
+    laughs.write_text("\n".join(lines) + "\nphases:\n- name: gas\n  thermo: ideal-gas\n  species: [gri30.yaml/species: "
+                      "[H2, O2]]\n  kinetics: gas\n  reactions: none\n")
+    err = error_of(["kinetics", "check", str(laughs), "--out", str(tmp_path / "k")], capsys)
+    assert f"{laughs}:2: the YAML alias *a is refused" in err
+
+
+def test_outputs_write_through_links_and_refuse_devices(tmp_path, capsys):
+    target = tmp_path / "real.json"
+    target.write_text("{}")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    snapo_ode.atomic_write_json(link, {"a": 1})
+    assert link.is_symlink() and json.loads(target.read_text()) == {"a": 1}
+    assert "not a regular file" in error_of(["gas", "--json", "/dev/null"], capsys)
+    directory = tmp_path / "report-real"
+    snapo_ode.publish_directory(directory, {"a.txt": b"1"})
+    linked = tmp_path / "report"
+    linked.symlink_to(directory)
+    snapo_ode.publish_directory(linked, {"a.txt": b"2"})
+    assert linked.is_symlink() and (linked / "a.txt").read_bytes() == b"2"
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["link.json", "real.json", "report", "report-real"]
+
+
+def test_every_failure_has_its_exit_code_and_one_line(tmp_path, capsys, monkeypatch):
+    from snapo_ode import _io
+    from snapo_ode._exits import ended
+
+    def full_disk(path, data):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    cases = [(snapo_ode.InputError("x = 1 is bad."), 2, "x = 1 is bad."),
+             (RecursionError(), 2, "nested too deeply"),
+             (snapo_ode.TrainingDiverged("the loss became nan at step 3; lower the learning rate", 3, None), 3,
+              "lower the learning rate"),
+             (OSError(errno.EROFS, "Read-only file system", "/x"), 4, "/x: Read-only file system; the file system is"),
+             (MemoryError(), 4, "out of memory")]
+    for error, code, message in cases:
+        def fail(error=error):
+            raise error
+        assert ended(fail) == code
+        err = capsys.readouterr().err
+        assert err.startswith("snapo: error: ") and err.count("\n") == 1 and message in err, err
+    monkeypatch.setattr(_io, "_write_temporary", full_disk)
+    err = error_of(["gas", "--train-steps", "1", "--no-progress", "--out", str(tmp_path / "full")], capsys, 4)
+    assert "No space left on device; free some space" in err
+
+
+@pytest.mark.parametrize("signal_number, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_sigint_and_sigterm_save_the_checkpoint_and_exit_quietly(tmp_path, signal_number, code):
+    out = tmp_path / "run"
+    command = [sys.executable, "-m", "snapo_ode.cli", "gas", "--train-steps", "1000000", "--no-progress",
+               "--out", str(out)]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    checkpoint = out / "gas.checkpoint.eqx"
+    deadline = time.monotonic() + 240
+    while not checkpoint.exists() and time.monotonic() < deadline and process.poll() is None:
+        time.sleep(0.2)
+    time.sleep(0.5)
+    process.send_signal(signal_number)
+    err = process.communicate(timeout=120)[1]
+    assert process.returncode == code, err
+    name = "SIGTERM" if signal_number == signal.SIGTERM else "SIGINT"
+    assert err.strip().splitlines()[-1].startswith(f"snapo: interrupted by {name}; the training so far is in")
+    assert "Traceback" not in err
+    header = json.loads(checkpoint.read_bytes().split(b"\n", 1)[0])
+    assert header["next_step"] >= 50 and header["steps"] == 1_000_000
+    assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]

@@ -95,9 +95,14 @@ def run_train(args) -> int:
 
 
 def _space_options(args) -> dict:
-    return dict(x=args.x, y=args.y, points=args.points, samples=args.samples, sigma=args.sigma, seed=args.seed,
-                level=args.level, verify_points=args.verify_points, surrogate_samples=args.surrogate_samples,
-                curvature_points=args.curvature_points, mesh=args.mesh)
+    """The design space's options, checked (before anything is computed)."""
+    from ._design_space import check_space_options
+
+    options = dict(x=args.x, y=args.y, points=args.points, samples=args.samples, sigma=args.sigma, seed=args.seed,
+                   level=args.level, verify_points=args.verify_points, surrogate_samples=args.surrogate_samples,
+                   curvature_points=args.curvature_points, mesh=args.mesh)
+    check_space_options(**options)
+    return options
 
 
 def run_design_space(args) -> int:
@@ -105,8 +110,9 @@ def run_design_space(args) -> int:
 
     from snapo_ode import is_writer
 
+    options = _space_options(args)
     chain, cpps = chain_from_args(args)
-    space = design_space(chain, cpps, **_space_options(args))
+    space = design_space(chain, cpps, **options)
     return _finish(space, args.json) if is_writer() else 0
 
 
@@ -115,9 +121,10 @@ def run_report(args) -> int:
 
     from ._report import build_report, pharma_report, report_provenance
 
+    options = _space_options(args)
     chain, cpps = chain_from_args(args)
     data = build_report(chain, cpps, repeats=args.repeats, max_solver_error=args.max_solver_error,
-                        check_warnings=lambda warnings: check_solver_errors(args, warnings), **_space_options(args))
+                        check_warnings=lambda warnings: check_solver_errors(args, warnings), **options)
     from snapo_ode import is_writer
 
     if not is_writer():

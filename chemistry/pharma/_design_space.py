@@ -101,6 +101,23 @@ def default_uncertain(chain: PharmaChain) -> list[str]:
     return [*rate_names(chain), *UNIT_RATES]
 
 
+def check_space_options(*, x: str, y: str, points: int, level: float, sigma: float, surrogate_samples: int,
+                        verify_points: int, samples: int, curvature_points: int, **_) -> None:
+    """Raise `InputError` for a `design_space` option out of range (the CLI calls it before
+    computing anything); other keyword arguments are ignored."""
+    check_choice("x", x, CPP_NAMES)
+    check_choice("y", y, tuple(n for n in CPP_NAMES if n != x))
+    check_count("points", points, 3, 201)
+    check_count("samples", samples, 2, 100_000)
+    check_count("surrogate_samples", surrogate_samples, 2, 1_000_000)
+    check_count("verify_points", verify_points, 1, points * points)
+    check_count("curvature_points", curvature_points, 0, points)
+    if curvature_points == 1:
+        raise InputError("curvature_points = 1; allowed: 0 (first order) or 2 and more (a grid to interpolate on).")
+    check_range("sigma", sigma, 0.0, 2.0, low_open=True)
+    check_range("level", level, 0.0, 1.0, low_open=True, high_open=True)
+
+
 def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y: str = "dryer_temperature",
                  points: int = 21, level: float = 0.95, sigma: float = 0.1, seed: int = 0,
                  surrogate_samples: int = 4096, verify_points: int = 9, samples: int = 1000,
@@ -120,17 +137,8 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
 
     **Raises:** `InputError` for an unknown CPP, equal x and y, a bad size or level.
     """
-    check_choice("x", x, CPP_NAMES)
-    check_choice("y", y, tuple(n for n in CPP_NAMES if n != x))
-    check_count("points", points, 3, 201)
-    check_count("samples", samples, 2, 100_000)
-    check_count("surrogate_samples", surrogate_samples, 2, 1_000_000)
-    check_count("verify_points", verify_points, 1, points * points)
-    check_count("curvature_points", curvature_points, 0, points)
-    if curvature_points == 1:
-        raise InputError("curvature_points = 1; allowed: 0 (first order) or 2 and more (a grid to interpolate on).")
-    check_range("sigma", sigma, 0.0, 2.0, low_open=True)
-    check_range("level", level, 0.0, 1.0, low_open=True, high_open=True)
+    check_space_options(x=x, y=y, points=points, level=level, sigma=sigma, surrogate_samples=surrogate_samples,
+                        verify_points=verify_points, samples=samples, curvature_points=curvature_points)
     ranges = {r.name: r for r in CPP_RANGES}
     xs, ys = np.linspace(*ranges[x].par, points), np.linspace(*ranges[y].par, points)
     uncertain = list(default_uncertain(chain) if uncertain is None else uncertain)

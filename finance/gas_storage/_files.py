@@ -1,65 +1,77 @@
 """The storage contract's files: a facility JSON and a forward-curve CSV, and the built-in sample
-of each. Plain Python and NumPy, so the CLI can list and read them without importing JAX."""
+of each. Plain Python, NumPy and pydantic, so the CLI can list and read them without importing JAX."""
 
 import csv
 import io
-import json
 import os
-import pathlib
 from importlib.resources import files
 
 import numpy as np
+import pydantic
 
-from snapo_ode import InputError
+from snapo_ode import DECIMAL, STRICT_SCHEMA, InputError, read_text, strict_json, validate
 
-def _read_text(path, what: str) -> str:
-    try:
-        return pathlib.Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{what} file {str(path)!r} does not exist.") from None
-    except IsADirectoryError:
-        raise InputError(f"{what} file {str(path)!r} is a directory.") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputError(f"{what} file {str(path)!r} cannot be read as text: {error}.") from None
+Number = float  # strict: an integer or a decimal, never a string or a boolean
+RatchetTable = list[pydantic.conlist(Number, min_length=2, max_length=2)]  # rows [fill, rate]
+
+
+class FacilityFile(pydantic.BaseModel):
+    """A facility JSON file: every field of `FACILITY_FIELDS`, each a number (or a ratchet table
+    of `[fill_fraction, rate_fraction]` rows) in the units of `StorageInputs`; no other field.
+    Types are checked here, strictly; ranges by `make_inputs` (the same for Python callers)."""
+
+    model_config = STRICT_SCHEMA
+    capacity: Number
+    initial_inventory: Number
+    terminal_inventory_min: Number
+    max_injection: Number
+    max_withdrawal: Number
+    injection_ratchet: RatchetTable
+    withdrawal_ratchet: RatchetTable
+    fuel_loss: Number
+    injection_cost: Number
+    withdrawal_cost: Number
+    rate: Number
 
 
 def load_facility(path: str | os.PathLike) -> dict:
-    """Read a facility JSON file (its fields are checked by `make_inputs`).
+    """Read a facility JSON file: strict JSON (`snapo_ode.strict_json`: no duplicate key, no NaN),
+    the fields and types of `FacilityFile` (ranges are checked by `make_inputs`).
 
-    **Raises:** `InputError` naming the file for a missing file, invalid JSON or not an object."""
-    try:
-        facility = json.loads(_read_text(path, "facility"))
-    except json.JSONDecodeError as error:
-        raise InputError(f"facility file {path}: not valid JSON ({error}).") from None
-    if not isinstance(facility, dict):
-        raise InputError(f"facility file {path}: expected a JSON object of fields.")
-    return facility
+    **Raises:** `InputError` naming the file, the line, the field, its value and what is allowed."""
+    where = f"facility file {path}"
+    text = read_text(path, "facility")
+    return validate(FacilityFile, strict_json(text, where), where, text).model_dump()
+
+
+def _number(text: str, field: str, where: str) -> float:
+    if DECIMAL.fullmatch(text.strip()) is None:
+        raise InputError(f"{where}: {field} = {text!r} is not a decimal number (such as 3.25 or 1e-3).")
+    return float(text)
 
 
 def load_curve(path: str | os.PathLike) -> np.ndarray:
-    """Read a forward-curve CSV with header `day,price` and days 0..T-1 in order; prices [$/MMBtu].
+    """Read a forward-curve CSV with header `day,price` and days 0..T-1 in order; prices [$/MMBtu]
+    as decimal numbers (no `_` separators, `nan`, `inf` or words).
 
     **Raises:** `InputError` naming the file, and the line, for a missing file, a wrong header, a
     day or price that is not a number, or days out of order."""
-    reader = csv.reader(io.StringIO(_read_text(path, "curve")))
+    reader = csv.reader(io.StringIO(read_text(path, "curve")))
     header = next(reader, None)
     if header is None or [f.strip() for f in header] != ["day", "price"]:
         raise InputError(f"curve file {path}: the header must be 'day,price'; got {header}.")
-    days, prices = [], []
+    prices = []
     for line, row in enumerate(reader, start=2):
         if not row:
             continue
+        where = f"curve file {path}, line {line}"
         if len(row) != 2:
-            raise InputError(f"curve file {path}, line {line}: expected 'day,price'; got {','.join(row)!r}.")
-        try:
-            days.append(float(row[0]))
-            prices.append(float(row[1]))
-        except ValueError:
-            raise InputError(f"curve file {path}, line {line}: day = {row[0]!r} or price = {row[1]!r} is not a "
-                             "number.") from None
-        if days[-1] != len(days) - 1:
-            raise InputError(f"curve file {path}, line {line}: day = {row[0]!r}; days must be 0, 1, ..., T-1 in "
-                             f"order, so this one must be {len(days) - 1}.")
+            raise InputError(f"{where}: expected 'day,price'; got {','.join(row)!r}.")
+        day = _number(row[0], "day", where)
+        prices.append(_number(row[1], "price", where))
+        if day != len(prices) - 1:
+            raise InputError(f"{where}: day = {row[0]!r}; days must be 0, 1, ..., T-1 in order, so this one must be "
+                             f"{len(prices) - 1}.")
     return np.asarray(prices)
 
 

@@ -27,6 +27,12 @@ FACILITY_FIELDS = (
 )
 
 
+# Magnitudes beyond which the model's arithmetic (value ~ capacity x price, smoothed flows of
+# order rate / capacity) loses its precision: far beyond any real facility or market.
+MAX_QUANTITY = 1e12  # capacity, inventories [MMBtu] and daily rates [MMBtu/day], at most
+MAX_PRICE = 1e6  # |price| and costs [$/MMBtu], at most
+
+
 class StorageInputs(eqx.Module):
     """Inputs of the gas-storage model (units: energy in MMBtu, or any unit used consistently
     with the curve; money per that unit; days).
@@ -87,7 +93,8 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
     log-normal, needs positive ones (`check_positive_prices`).
 
     **Raises:** `InputError` naming the field, its value and the allowed range, for: a missing or
-    unknown field, non-finite prices, a curve that is zero on every day, capacity <= 0, an initial inventory outside
+    unknown field, non-finite prices, a curve that is zero on every day, capacity <= 0, a
+    quantity above MAX_QUANTITY or a price or cost above MAX_PRICE in magnitude, an initial inventory outside
     [0, capacity], a malformed or non-increasing ratchet table, or a terminal requirement that
     cannot be reached at the maximum injection rate.
     """
@@ -99,21 +106,21 @@ def make_inputs(facility: dict, forward_curve, *, volatility: float = 0.0,
             f"facility fields missing: {missing or 'none'}; unknown: {unknown or 'none'}. "
             f"Expected exactly: {', '.join(FACILITY_FIELDS)}."
         )
-    curve = check_finite("forward_curve (price)", forward_curve)
+    curve = check_range("forward_curve (price)", forward_curve, -MAX_PRICE, MAX_PRICE)
     if curve.ndim != 1 or curve.size < 2:
         raise InputError(f"forward_curve must hold at least two daily prices; got shape {curve.shape}.")
     if not np.any(curve):
         raise InputError("forward_curve is zero on every day: nothing to value, and no price scale to train on.")
-    capacity = check_scalar("capacity", facility["capacity"], 0.0, low_open=True)
+    capacity = check_scalar("capacity", facility["capacity"], 0.0, MAX_QUANTITY, low_open=True)
     initial = check_scalar("initial_inventory", facility["initial_inventory"], 0.0, capacity)
     terminal = check_scalar("terminal_inventory_min", facility["terminal_inventory_min"], 0.0, capacity)
-    max_injection = check_scalar("max_injection", facility["max_injection"], 0.0)
-    max_withdrawal = check_scalar("max_withdrawal", facility["max_withdrawal"], 0.0)
+    max_injection = check_scalar("max_injection", facility["max_injection"], 0.0, MAX_QUANTITY)
+    max_withdrawal = check_scalar("max_withdrawal", facility["max_withdrawal"], 0.0, MAX_QUANTITY)
     fuel_loss = check_scalar("fuel_loss", facility["fuel_loss"], 0.0, 1.0, high_open=True)
     injection_ratchet = _check_ratchet("injection_ratchet", facility["injection_ratchet"])
     withdrawal_ratchet = _check_ratchet("withdrawal_ratchet", facility["withdrawal_ratchet"])
-    injection_cost = check_scalar("injection_cost", facility["injection_cost"], 0.0)
-    withdrawal_cost = check_scalar("withdrawal_cost", facility["withdrawal_cost"], 0.0)
+    injection_cost = check_scalar("injection_cost", facility["injection_cost"], 0.0, MAX_PRICE)
+    withdrawal_cost = check_scalar("withdrawal_cost", facility["withdrawal_cost"], 0.0, MAX_PRICE)
     rate = check_scalar("rate", facility["rate"], -1.0, 1.0)
     check_scalar("volatility", volatility, 0.0, 10.0)
     check_scalar("mean_reversion", mean_reversion, 0.0, 1e4)
