@@ -6,7 +6,7 @@ Heavy imports (JAX, Cantera, the model) happen inside the handlers, so `snapo --
 import importlib.util
 import pathlib
 
-from snapo_ode.cli import CommandLine
+from snapo_ode.cli import count, positive, CommandLine
 
 CASE_FIELDS = ("temperature", "pressure", "end_time", "sensitivity_time")
 
@@ -57,14 +57,14 @@ def register_kinetics(cli: CommandLine) -> None:
                         "Cantera", group=kinetics)
     check.add_argument("mechanism", type=pathlib.Path, metavar="MECH.yaml")
     check.add_argument("--phase", help="phase name (default: the file's first)")
-    check.add_argument("--states", type=int, default=120, help="random states of the rate comparison")
+    check.add_argument("--states", type=count(), default=120, help="random states of the rate comparison")
     check.add_argument("--mixture", help="ignition mixture in Cantera's mole ratios, e.g. 'H2:2,O2:1,N2:3.76' "
                        "(default: H2/O2 or CH4/air when the mechanism has them)")
-    check.add_argument("--temperature", type=float, help="ignition start temperature [K] (default: the case's, "
+    check.add_argument("--temperature", type=positive(), help="ignition start temperature [K] (default: the case's, "
                        "1000 K for H2/O2, 1500 K for CH4/air)")
-    check.add_argument("--pressure", type=float, help="ignition start pressure [Pa] (default 1 atm)")
-    check.add_argument("--end-time", type=float, help="ignition end time [s] (default: the case's)")
-    check.add_argument("--sensitivity-time", type=float, help="time of d ln T / d ln A [s] (default: the case's, "
+    check.add_argument("--pressure", type=positive(), help="ignition start pressure [Pa] (default 1 atm)")
+    check.add_argument("--end-time", type=positive(), help="ignition end time [s] (default: the case's)")
+    check.add_argument("--sensitivity-time", type=positive(), help="time of d ln T / d ln A [s] (default: the case's, "
                        "else 0.9 x the delay)")
     check.add_argument("--no-ignition", action="store_true", help="rates only")
     check.add_argument("--no-sensitivities", action="store_true", help="skip the sensitivity comparison")
@@ -73,7 +73,7 @@ def register_kinetics(cli: CommandLine) -> None:
                         "compared with Cantera, or refused naming the feature (a Markdown table)", group=kinetics)
     sweep.add_argument("files", nargs="*", type=pathlib.Path, metavar="MECH.yaml",
                        help="YAML files (default: every *.yaml in Cantera's data directory)")
-    sweep.add_argument("--states", type=int, default=4, help="random states per phase (T 500-2500 K, "
+    sweep.add_argument("--states", type=count(), default=4, help="random states per phase (T 500-2500 K, "
                        "P 0.01-100 atm)")
     sweep.set_defaults(handler=run_sweep)
     bench = cli.bench("kinetics", "forward solve and gradient wrt every A-factor vs Cantera with and without "
@@ -81,11 +81,11 @@ def register_kinetics(cli: CommandLine) -> None:
     bench.add_argument("--mechanisms", nargs="+", default=["h2o2", "gri30"], choices=["h2o2", "gri30"],
                        help="built-in ignition cases (gri30: ~3 minutes, most of it compiling and Cantera's "
                             "325 sensitivities)")
-    bench.add_argument("--repeats", type=int, default=5)
-    bench.add_argument("--batch", type=int, metavar="N", help="also N reactors from spread initial states, per "
+    bench.add_argument("--repeats", type=count(), default=5)
+    bench.add_argument("--batch", type=count(), metavar="N", help="also N reactors from spread initial states, per "
                        "reactor: our forward solves as one batch, our gradients vmapped over a sample, Cantera "
                        "serially (gri30 with N = 256 and --repeats 1: ~3-5 minutes on 2 cores, compiles included)")
-    bench.add_argument("--batch-scaling", type=int, nargs="+", default=[], metavar="N", help="also, at each N, "
+    bench.add_argument("--batch-scaling", type=count(), nargs="+", default=[], metavar="N", help="also, at each N, "
                        "our forward solves as one batch and Cantera serially on the same N reactors, per reactor "
                        "(bench_kinetics_scaling.{csv,json}): how batching amortises as N grows (on a GPU)")
     bench.set_defaults(handler=run_bench)

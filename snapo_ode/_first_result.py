@@ -21,6 +21,8 @@ import tempfile
 import time
 from collections.abc import Mapping, Sequence
 
+from ._options import count
+
 DEFINITION = ("wall time of a new `snapo` process, start to exit with its result written; cold: an empty "
               "SNAPO_CACHE_DIR, warm: the median of --repeats new processes on the cache the cold one left")
 
@@ -55,7 +57,7 @@ def add_first_result_bench(cli) -> None:
     bench = cli.bench("first-result", "time to the first result of the domains' commands in a new process: cold "
                       "(empty cache directory) and warm (a second process)")
     bench.add_argument("--only", action="append", metavar="NAME", help="run only this workload (repeatable)")
-    bench.add_argument("--repeats", type=int, default=3, help="warm processes, their median reported (default 3)")
+    bench.add_argument("--repeats", type=count(), default=3, help="warm processes, their median reported (default 3)")
     bench.set_defaults(handler=lambda args: run_first_result(args, cli.first_results))
 
 

@@ -12,6 +12,7 @@ import os
 import pathlib
 import re
 import shutil
+import signal
 import subprocess
 import tempfile
 
@@ -71,16 +72,34 @@ def print_pdf(html: str, *, timeout: float = PRINT_TIMEOUT_SECONDS) -> bytes:
         command = [binary, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
                    f"--user-data-dir={tmp / 'profile'}", "--no-pdf-header-footer",
                    "--generate-pdf-document-outline", f"--print-to-pdf={target}", page.as_uri()]
+        # Chromium and its helpers in a session of their own, their temporary files inside `tmp`:
+        # on a timeout or an interrupt (SIGINT, SIGTERM) all of them stop and nothing is left.
         try:
-            result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            raise PdfUnavailable(f"Chromium ({binary}) did not print the PDF within {timeout:g} s.") from None
+            process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                       env={**os.environ, "TMPDIR": str(tmp)}, start_new_session=True)
         except OSError as error:
             raise PdfUnavailable(f"Chromium ({binary}) could not be run: {error}.") from None
+        try:
+            stderr = process.communicate(timeout=timeout)[1]
+        except subprocess.TimeoutExpired:
+            _stop(process)
+            raise PdfUnavailable(f"Chromium ({binary}) did not print the PDF within {timeout:g} s.") from None
+        except BaseException:
+            _stop(process)
+            raise
         if not target.is_file() or target.stat().st_size == 0:
-            tail = " ".join((result.stderr or "").split()[-40:])
-            raise PdfUnavailable(f"Chromium ({binary}) exited {result.returncode} without a PDF: {tail}")
+            tail = " ".join((stderr or "").split()[-40:])
+            raise PdfUnavailable(f"Chromium ({binary}) exited {process.returncode} without a PDF: {tail}")
         return target.read_bytes()
+
+
+def _stop(process: subprocess.Popen) -> None:
+    """Kill `process` and every process of its session, and wait for it."""
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    process.communicate()
 
 
 def count_pages(pdf: bytes) -> int:

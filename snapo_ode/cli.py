@@ -42,8 +42,11 @@ from importlib.metadata import entry_points
 
 from ._exits import EXIT_INPUT_ERROR, configure_or_warn, ended
 from ._first_result import add_first_result_bench
+from ._options import OneLineParser, count, number, positive
 from ._validation import InputError
 
+__all__ = ["CommandLine", "OneLineParser", "add_common_options", "add_device_options", "add_training_options",
+           "build", "count", "main", "number", "parse", "positive", "publish_report"]
 PLUGIN_GROUP = "snapo_ode.plugins"
 DEFAULT_OUT = pathlib.Path("snapo-out")
 def check_output_paths(args: argparse.Namespace) -> None:
@@ -94,7 +97,7 @@ def add_common_options(parser: argparse.ArgumentParser, *, out: pathlib.Path, js
     parser.add_argument("--json", type=pathlib.Path, metavar="PATH",
                         help=f"the result's JSON (default OUT/{json_name})")
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--seed", type=count(0), default=0, help="random seed (default 0)")
     parser.add_argument("--debug", action="store_true", help="show a traceback on error")
     parser.set_defaults(json_name=json_name)
 
@@ -115,13 +118,13 @@ def add_device_options(parser: argparse.ArgumentParser) -> None:
     whose independent samples (paths, design points, conditions) split over devices; its handler
     gets `args.mesh`, the samples mesh (`snapo_ode.sample_mesh`), or None on one device. Only
     process 0 writes (`snapo_ode.is_writer`)."""
-    parser.add_argument("--devices", type=int, metavar="N",
+    parser.add_argument("--devices", type=count(), metavar="N",
                         help="devices the samples split over (default: all; on CPU, the host split into N)")
     parser.add_argument("--coordinator", metavar="HOST:PORT",
                         help="multi-process run: process 0's address, with --num-processes and --process-id "
                              "(detected on SLURM)")
-    parser.add_argument("--num-processes", type=int, metavar="P", help="multi-process run: the number of processes")
-    parser.add_argument("--process-id", type=int, metavar="I", help="multi-process run: this process, 0 to P-1")
+    parser.add_argument("--num-processes", type=count(), metavar="P", help="multi-process run: the number of processes")
+    parser.add_argument("--process-id", type=count(0), metavar="I", help="multi-process run: this process, 0 to P-1")
     parser.set_defaults(distributed=True)
 
 
@@ -129,7 +132,7 @@ class CommandLine:
     """The parser tree handed to each plugin."""
 
     def __init__(self) -> None:
-        self.parser = argparse.ArgumentParser(
+        self.parser = OneLineParser(
             prog="snapo",
             description="Smooth Neural Adjoint Policy Optimization on differentiable simulators.",
         )
@@ -157,7 +160,7 @@ class CommandLine:
                              "each run in a snapo process of its own")
         scaling.add_argument("--only", action="append", metavar="NAME", help="run only this workload (repeatable)")
         scaling.add_argument("--quick", action="store_true", help="small sizes (a test's)")
-        scaling.add_argument("--repeats", type=int, default=5, help="timed runs after the compile (default 5)")
+        scaling.add_argument("--repeats", type=count(), default=5, help="timed runs after the compile (default 5)")
         add_device_options(scaling)
         scaling.set_defaults(handler=self._run_scaling)
         self.first_results: dict[str, list[str]] = {}
@@ -239,8 +242,8 @@ class CommandLine:
         written = write_table(args.out, "bench_scaling", rows, extra,
                               files={} if args.devices is not None else {"bench_scaling.png": scaling_png(rows)})
         print(f"written: {', '.join(map(str, written))}")
-        for count, code in failed.items():
-            print(f"snapo: error: the run on {count} devices failed (exit {code}); the table holds the others",
+        for devices, code in failed.items():
+            print(f"snapo: error: the run on {devices} devices failed (exit {code}); the table holds the others",
                   file=sys.stderr)
         return next(iter(failed.values()), 0)
 

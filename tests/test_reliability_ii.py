@@ -1,8 +1,11 @@
 """Reliability II (issue 33): no wrong result from a stale checkpoint or a shared cache, no input
 that exhausts memory, every failure a one-line exit 2 (user), 3 (solve) or 4 (environment)."""
 
+import argparse
 import errno
 import json
+import os
+import pathlib
 import re
 import signal
 import stat
@@ -15,7 +18,7 @@ import pytest
 import snapo_ode
 
 from finance import gas_storage as gs
-from snapo_ode.cli import main
+from snapo_ode.cli import build, main
 
 
 def error_of(argv, capsys, code=2) -> str:
@@ -200,3 +203,63 @@ def test_sigint_and_sigterm_save_the_checkpoint_and_exit_quietly(tmp_path, signa
     header = json.loads(checkpoint.read_bytes().split(b"\n", 1)[0])
     assert header["next_step"] >= 50 and header["steps"] == 1_000_000
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
+def _verbs(parser, prefix=()):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _verbs(sub, (*prefix, name))
+    if parser.get_default("handler") is not None:
+        yield prefix, parser
+
+
+def test_every_numeric_option_is_range_checked_as_it_is_parsed(capsys):
+    verbs = list(_verbs(build().parser))
+    assert len(verbs) > 15
+    for prefix, parser in verbs:
+        for action in parser._actions:
+            assert action.type not in (int, float), f"snapo {' '.join(prefix)} {action.option_strings}: a bare type"
+    for argv, message in ((["gas", "--paths", "-5"], "gas: argument --paths: -5 is out of range: allowed >= 1"),
+                          (["bench", "gas-family", "--cases", "0"], "allowed >= 1"),
+                          (["kinetics", "sweep", "--states", "0"], "allowed >= 1"),
+                          (["pharma", "train", "--sharpness", "-1"], "allowed (0, inf]"),
+                          (["gas", "--stochastic", "--volatility", "nan"], "out of range"),
+                          (["bench", "pharma", "--repeats", "x"], "'x' is not a whole number")):
+        with pytest.raises(SystemExit) as exited:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exited.value.code == 2 and err.startswith("snapo: error: ") and err.count("\n") == 1, err
+        assert message in err, err
+
+
+PRINTING_SCRIPT = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from test_report_core import toy_report
+from snapo_ode.cli import main, publish_report
+
+def register(cli):
+    cli.report("toy", "a toy report").set_defaults(handler=lambda args: publish_report(args, toy_report(3000)))
+
+sys.exit(main(["report", "toy", "--out", sys.argv[2]], plugins=[register]))
+"""
+
+
+@pytest.mark.skipif(snapo_ode.find_chromium() is None, reason="no headless Chromium (Debian package chromium)")
+def test_sigterm_while_printing_the_pdf_leaves_no_temporary_files(tmp_path):
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    tests = str(pathlib.Path(__file__).parent)
+    process = subprocess.Popen([sys.executable, "-c", PRINTING_SCRIPT, tests, str(tmp_path / "report")],
+                               stderr=subprocess.PIPE, text=True, env={**os.environ, "TMPDIR": str(temporary)})
+    deadline = time.monotonic() + 120
+    while not list(temporary.glob("snapo-pdf-*/report.html")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.3)  # Chromium is printing
+    process.send_signal(signal.SIGTERM)
+    err = process.communicate(timeout=120)[1]
+    assert process.returncode == 143, err
+    assert err.strip().splitlines()[-1] == "snapo: interrupted by SIGTERM; no result was written"
+    time.sleep(1.0)
+    assert not list(temporary.iterdir()) and not (tmp_path / "report").exists()

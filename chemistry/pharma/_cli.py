@@ -6,7 +6,7 @@ Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` sta
 import argparse
 import sys
 
-from snapo_ode.cli import add_device_options, add_training_options
+from snapo_ode.cli import count, number, positive, add_device_options, add_training_options
 
 from ._ranges import CPP_RANGES
 
@@ -14,11 +14,11 @@ from ._ranges import CPP_RANGES
 def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
     """CPP values, solver tolerances and effects."""
     for spec in CPP_RANGES:
-        parser.add_argument(f"--{spec.name.replace('_', '-')}", type=float, default=spec.nominal,
+        parser.add_argument(f"--{spec.name.replace('_', '-')}", type=number(), default=spec.nominal,
                             help=f"{spec.description} [{spec.unit}] (nominal {spec.nominal:g}, PAR "
                                  f"{spec.par[0]:g}-{spec.par[1]:g})")
-    parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance of every unit's solve")
-    parser.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance (scaled states)")
+    parser.add_argument("--rtol", type=positive(1), default=1e-8, help="relative tolerance of every unit's solve")
+    parser.add_argument("--atol", type=positive(), default=1e-10, help="absolute tolerance (scaled states)")
     parser.add_argument("--solver", default="rodas5", help="of the stiff units R1 and R2: rodas5 "
                         "(default), rodas4, kvaerno5, kvaerno4 or kvaerno3")
     parser.add_argument("--nonstiff-solver", default="tsit5", help="of the crystallizer and the dryer: tsit5, "
@@ -29,7 +29,7 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_accuracy_arguments(parser: argparse.ArgumentParser) -> None:
     """`--max-solver-error` and `--strict`: what the solver error against the tight reference may be."""
-    parser.add_argument("--max-solver-error", type=float, default=1e-4, help="relative error against the reference "
+    parser.add_argument("--max-solver-error", type=positive(), default=1e-4, help="relative error against the reference "
                         "above which the result warns (JSON, stderr, report)")
     parser.add_argument("--strict", action="store_true", help="a solver error above --max-solver-error is an "
                         "error (exit 3, nothing written), not a warning")
@@ -136,15 +136,15 @@ def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
     """The design space's grid, uncertainty, level and verification."""
     parser.add_argument("--x", default="r1_temperature", help="the CPP on the map's horizontal axis")
     parser.add_argument("--y", default="dryer_temperature", help="the CPP on the map's vertical axis")
-    parser.add_argument("--points", type=int, default=21, help="grid points per CPP over its PAR (default 21)")
-    parser.add_argument("--level", "--confidence", type=float, default=0.95, dest="level",
+    parser.add_argument("--points", type=count(), default=21, help="grid points per CPP over its PAR (default 21)")
+    parser.add_argument("--level", "--confidence", type=number(0, 1, low_open=True, high_open=True), default=0.95, dest="level",
                         help="the probability of meeting every spec that defines the design space (default 0.95)")
-    parser.add_argument("--sigma", type=float, default=0.1, help="standard deviation of each uncertain ln k")
-    parser.add_argument("--surrogate-samples", type=int, default=4096, help="draws of the surrogate map")
-    parser.add_argument("--curvature-points", type=int, default=6,
+    parser.add_argument("--sigma", type=positive(2), default=0.1, help="standard deviation of each uncertain ln k")
+    parser.add_argument("--surrogate-samples", type=count(), default=4096, help="draws of the surrogate map")
+    parser.add_argument("--curvature-points", type=count(0), default=6,
                         help="coarse grid per CPP of the surrogate's second-order term (0: first order)")
-    parser.add_argument("--verify-points", type=int, default=9, help="grid points checked by full Monte Carlo")
-    parser.add_argument("--samples", type=int, default=1000, help="full-model draws at each verification point")
+    parser.add_argument("--verify-points", type=count(), default=9, help="grid points checked by full Monte Carlo")
+    parser.add_argument("--samples", type=count(), default=1000, help="full-model draws at each verification point")
 
 
 def run_bench(args) -> int:
@@ -175,20 +175,20 @@ def register_pharma(cli) -> None:
                        "against central differences and a tight-tolerance reference", group=pharma)
     add_chain_arguments(sens)
     sens.add_argument("--mode", default="auto", help="auto (the cheaper for the Jacobian's shape), reverse, forward")
-    sens.add_argument("--repeats", type=int, default=10, help="timed runs after the compile")
+    sens.add_argument("--repeats", type=count(), default=10, help="timed runs after the compile")
     sens.add_argument("--no-bumps", action="store_true", help="skip the central-difference check")
     sens.add_argument("--no-reference", action="store_true", help="skip the tight-tolerance reference")
-    sens.add_argument("--reference-rtol", type=float, default=1e-12)
-    sens.add_argument("--reference-atol", type=float, default=1e-14)
+    sens.add_argument("--reference-rtol", type=positive(1), default=1e-12)
+    sens.add_argument("--reference-atol", type=positive(), default=1e-14)
     add_accuracy_arguments(sens)
     sens.set_defaults(handler=run_sensitivities)
     train = cli.command("train", "train the R1 jacket and crystallizer cooling profiles for yield, specs as "
                         "smooth penalties; evaluate with hard spec checks (policies beside the JSON)", group=pharma)
     add_chain_arguments(train)
-    train.add_argument("--steps", type=int, default=60)
-    train.add_argument("--learning-rate", type=float, default=3e-2)
-    train.add_argument("--penalty-weight", type=float, default=1.0)
-    train.add_argument("--sharpness", type=float, default=50.0, help="of the softplus spec penalty")
+    train.add_argument("--steps", type=count(), default=60)
+    train.add_argument("--learning-rate", type=positive(), default=3e-2)
+    train.add_argument("--penalty-weight", type=number(0), default=1.0)
+    train.add_argument("--sharpness", type=positive(), default=50.0, help="of the softplus spec penalty")
     add_training_options(train)
     train.set_defaults(handler=run_train)
     space = cli.command("design-space", "P(all specs) over a fine grid of two CPPs under uncertain rate constants, "
@@ -202,14 +202,14 @@ def register_pharma(cli) -> None:
     add_chain_arguments(report)
     add_design_space_arguments(report)
     add_device_options(report)
-    report.add_argument("--repeats", type=int, default=5, help="timed runs of the sensitivities")
+    report.add_argument("--repeats", type=count(), default=5, help="timed runs of the sensitivities")
     add_accuracy_arguments(report)
     report.set_defaults(handler=run_report)
     bench = cli.bench("pharma", "20 sensitivities from 5 reverse passes vs 4 forward tangents: median after "
                       "compile and accuracy against a tight-tolerance reference, per tolerance")
     bench.add_argument("--rtols", default="1e-5,3e-6,1e-6,1e-7,1e-8",
                        help="comma-separated rtol values (atol = rtol / 100)")
-    bench.add_argument("--repeats", type=int, default=25)
+    bench.add_argument("--repeats", type=count(), default=25)
     bench.set_defaults(handler=run_bench)
     cli.accuracy("gradients", gradient_accuracy)
     cli.scaling("pharma", device_scaling)

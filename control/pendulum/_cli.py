@@ -3,7 +3,7 @@
 Heavy imports (JAX, the model, Gymnasium) happen inside the handler, so `snapo --help` stays quick.
 """
 
-from snapo_ode.cli import CommandLine
+from snapo_ode.cli import count, CommandLine
 
 
 def _pendulum(args) -> int:
@@ -26,12 +26,12 @@ def register_pendulum(cli: CommandLine) -> None:
     parser = cli.command("pendulum", "Gymnasium's Pendulum-v1: train a swing-up policy through our differentiable "
                                      "model with the angle as a periodic state, evaluate it on Gymnasium's own "
                                      "environment, next to the same training without the periodic treatment")
-    parser.add_argument("--train-steps", type=int, default=defaults["steps"], metavar="N",
+    parser.add_argument("--train-steps", type=count(), default=defaults["steps"], metavar="N",
                         help=f"optimisation steps (default {defaults['steps']})")
-    parser.add_argument("--batch", type=int, default=defaults["batch"], metavar="B",
+    parser.add_argument("--batch", type=count(), default=defaults["batch"], metavar="B",
                         help=f"initial states per step (default {defaults['batch']})")
-    parser.add_argument("--eval-episodes", type=int, default=100, metavar="E",
+    parser.add_argument("--eval-episodes", type=count(), default=100, metavar="E",
                         help="Gymnasium episodes of the evaluation (default 100)")
-    parser.add_argument("--eval-seed", type=int, default=0, metavar="S",
+    parser.add_argument("--eval-seed", type=count(0), default=0, metavar="S",
                         help="seed of the first evaluation reset (default 0)")
     parser.set_defaults(handler=_pendulum)

@@ -3,7 +3,7 @@
 Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` stays quick.
 """
 
-from snapo_ode.cli import CommandLine, add_device_options, add_training_options
+from snapo_ode.cli import count, CommandLine, add_device_options, add_training_options
 
 
 def _alm(args) -> int:
@@ -72,38 +72,38 @@ def register_alm(cli: CommandLine) -> None:
     `snapo bench accuracy`."""
     parser = cli.command("alm", "pension-fund ALM: train the rebalancing policy and report the "
                                 "sensitivities to every risk factor (one reverse pass)")
-    parser.add_argument("--risk-factors", type=int, default=100, metavar="N",
+    parser.add_argument("--risk-factors", type=count(), default=100, metavar="N",
                         help="number of reported risk factors, >= 9 (default 100)")
-    parser.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths (default 1000)")
-    parser.add_argument("--horizon-months", type=int, default=120, metavar="H",
+    parser.add_argument("--paths", type=count(), default=1000, help="Monte Carlo paths (default 1000)")
+    parser.add_argument("--horizon-months", type=count(), default=120, metavar="H",
                         help="horizon in months, 1 to 600 (default 120)")
     parser.add_argument("--bump", action="store_true",
                         help="also run central bump-and-revalue and forward mode, and compare")
-    parser.add_argument("--train-steps", type=int, default=0, metavar="S",
+    parser.add_argument("--train-steps", type=count(), default=0, metavar="S",
                         help="policy training steps (default 0: an untrained policy)")
-    parser.add_argument("--train-paths", type=int, default=256, help="paths per training step")
+    parser.add_argument("--train-paths", type=count(), default=256, help="paths per training step")
     add_training_options(parser)
     add_device_options(parser)
     parser.set_defaults(handler=_alm)
 
     bench = cli.bench("alm", "sensitivity cost against the number of risk factors: adjoint vs "
                              "batched bump-and-revalue vs forward mode (writes alm_scaling.{csv,json,png})")
-    bench.add_argument("--risk-factors", type=int, nargs="+",
+    bench.add_argument("--risk-factors", type=count(), nargs="+",
                        default=[10, 50, 100, 500, 1000, 2000], metavar="N")
-    bench.add_argument("--paths", type=int, default=128, help="paths (default 128)")
-    bench.add_argument("--horizon-months", type=int, default=120, metavar="H")
-    bench.add_argument("--repeats", type=int, default=3, help="timed runs per method")
+    bench.add_argument("--paths", type=count(), default=128, help="paths (default 128)")
+    bench.add_argument("--horizon-months", type=count(), default=120, metavar="H")
+    bench.add_argument("--repeats", type=count(), default=3, help="timed runs per method")
     add_device_options(bench)
     bench.set_defaults(handler=_bench)
 
     report = cli.report("alm", "the fund's risk report: funding ratio and objective of the trained policy against "
                                "fixed mixes, and the key-rate, inflation, equity and spread sensitivity ladder "
                                "(one reverse pass each)")
-    report.add_argument("--risk-factors", type=int, default=100, metavar="N", help="reported risk factors, >= 9")
-    report.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths of the evaluation (default 1000)")
-    report.add_argument("--horizon-months", type=int, default=120, metavar="H", help="horizon in months (default 120)")
-    report.add_argument("--train-steps", type=int, default=300, metavar="S", help="policy training steps (default 300)")
-    report.add_argument("--train-paths", type=int, default=256, help="paths per training step")
+    report.add_argument("--risk-factors", type=count(), default=100, metavar="N", help="reported risk factors, >= 9")
+    report.add_argument("--paths", type=count(), default=1000, help="Monte Carlo paths of the evaluation (default 1000)")
+    report.add_argument("--horizon-months", type=count(), default=120, metavar="H", help="horizon in months (default 120)")
+    report.add_argument("--train-steps", type=count(), default=300, metavar="S", help="policy training steps (default 300)")
+    report.add_argument("--train-paths", type=count(), default=256, help="paths per training step")
     report.add_argument("--no-bump", action="store_true", help="skip the check of the adjoint against central bumps")
     add_training_options(report)
     add_device_options(report)

@@ -7,7 +7,7 @@ import argparse
 import pathlib
 import sys
 
-from snapo_ode.cli import add_training_options
+from snapo_ode.cli import count, number, positive, add_training_options
 
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
@@ -19,21 +19,21 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
                         "[$/MMBtu] (default: the --sample's)")
     parser.add_argument("--facility", type=pathlib.Path, help="facility JSON (default: the --sample's)")
     parser.add_argument("--stochastic", action="store_true", help="trade on simulated spot paths")
-    parser.add_argument("--volatility", type=float, help="OU factor volatility [1/sqrt(year)] (default 0.5; "
+    parser.add_argument("--volatility", type=number(0, 10), help="OU factor volatility [1/sqrt(year)] (default 0.5; "
                         "bdj: 0.6018, B&dJ's 3.15%% per sqrt(day))")
-    parser.add_argument("--mean-reversion", type=float, help="OU mean reversion [1/year] (default 2; "
+    parser.add_argument("--mean-reversion", type=number(0, 1e4), help="OU mean reversion [1/year] (default 2; "
                         "bdj: 18.25, B&dJ's 0.05/day)")
-    parser.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths (stochastic mode)")
+    parser.add_argument("--paths", type=count(), default=1000, help="Monte Carlo paths (stochastic mode)")
     parser.add_argument("--head", choices=["basestock", "fraction", "split"], default="basestock",
                         help="policy head (see make_policy): basestock inventory targets (Secomandi 2010; the "
                         "default, measured best), a fraction of the largest flow, or split inject/withdraw scores")
     parser.add_argument("--split-actions", action="store_true", help="same as --head split")
-    parser.add_argument("--train-paths", type=int, help="fresh paths per training step (default per head: "
+    parser.add_argument("--train-paths", type=count(), help="fresh paths per training step (default per head: "
                         "basestock 512, others 256)")
-    parser.add_argument("--train-steps", type=int, help="default per head: basestock 800, others 1500")
-    parser.add_argument("--learning-rate", type=float, help="peak learning rate (default per head: basestock 0.03, "
+    parser.add_argument("--train-steps", type=count(), help="default per head: basestock 800, others 1500")
+    parser.add_argument("--learning-rate", type=positive(), help="peak learning rate (default per head: basestock 0.03, "
                         "others 0.01)")
-    parser.add_argument("--sharpness", type=float, help="smoothing sharpness of the smooth value (gap about "
+    parser.add_argument("--sharpness", type=positive(), help="smoothing sharpness of the smooth value (gap about "
                         "log(2)/sharpness of a day's maximum flow; default 200)")
     parser.add_argument("--hard-training", action=argparse.BooleanOptionalAction, help="train and differentiate "
                         "the exact model (the basestock head can: its value is continuous in its targets; default no)")
@@ -47,9 +47,9 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
 def add_lsmc_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lsmc", action="store_true", help="also value by least-squares Monte Carlo, perfect "
                         "foresight and the dual upper bound on the same fresh paths (needs --stochastic)")
-    parser.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC inventory grid levels")
-    parser.add_argument("--lsmc-degree", type=int, default=3, help="LSMC polynomial degree in spot")
-    parser.add_argument("--foresight-paths", type=int, default=256, help="paths of the perfect-foresight LPs")
+    parser.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC inventory grid levels")
+    parser.add_argument("--lsmc-degree", type=count(1, 12), default=3, help="LSMC polynomial degree in spot")
+    parser.add_argument("--foresight-paths", type=count(), default=256, help="paths of the perfect-foresight LPs")
 
 
 def study_from_args(args):
@@ -171,28 +171,28 @@ def register_gas(cli) -> None:
                        "(writes OUT/gas.json and OUT/gas.policy.eqx)", json_name="gas.json")
     demo.set_defaults(handler=run_demo)
     bench = cli.bench("gas", "training time, gradient/forward ratio, adjoint vs bump-and-revalue, scan vs Diffrax")
-    bench.add_argument("--paths", type=int, default=1000, help="Monte Carlo paths of the stochastic case")
-    bench.add_argument("--repeats", type=int, default=5)
+    bench.add_argument("--paths", type=count(), default=1000, help="Monte Carlo paths of the stochastic case")
+    bench.add_argument("--repeats", type=count(), default=5)
     bench.set_defaults(handler=run_bench)
     versus = cli.bench("gas-lsmc", "SNAPO against least-squares Monte Carlo on the Boogert & de Jong (2008) "
                        "contract, both volatilities, the same fresh paths")
-    versus.add_argument("--paths", type=int, default=10_000, help="LSMC fitting paths and evaluation paths")
+    versus.add_argument("--paths", type=count(), default=10_000, help="LSMC fitting paths and evaluation paths")
     versus.add_argument("--head", choices=["basestock", "fraction", "split"], default="basestock")
-    versus.add_argument("--train-paths", type=int, help="SNAPO: fresh paths per training step (default: the head's)")
-    versus.add_argument("--train-steps", type=int, help="default: the head's")
-    versus.add_argument("--foresight-paths", type=int, default=1000, help="paths of the perfect-foresight LPs")
-    versus.add_argument("--lsmc-nodes", type=int, default=101)
-    versus.add_argument("--lsmc-degree", type=int, default=3)
+    versus.add_argument("--train-paths", type=count(), help="SNAPO: fresh paths per training step (default: the head's)")
+    versus.add_argument("--train-steps", type=count(), help="default: the head's")
+    versus.add_argument("--foresight-paths", type=count(), default=1000, help="paths of the perfect-foresight LPs")
+    versus.add_argument("--lsmc-nodes", type=count(), default=101)
+    versus.add_argument("--lsmc-degree", type=count(1, 12), default=3)
     versus.set_defaults(handler=run_bench_lsmc)
     family = cli.bench("gas-family", "SNAPO, LSMC, the dual bound and the intrinsic LP on a generated family of "
                        "curves (weekly shapes, holidays, spikes, seasonal, flat, contango, backwardation) and "
                        "facilities (fast, slow, ratchets, fuel and costs, everything), the same fresh paths")
-    family.add_argument("--paths", type=int, default=10_000, help="LSMC fitting paths and evaluation paths")
-    family.add_argument("--cases", type=int, help="the first CASES of the family (default: all 14)")
+    family.add_argument("--paths", type=count(), default=10_000, help="LSMC fitting paths and evaluation paths")
+    family.add_argument("--cases", type=count(), help="the first CASES of the family (default: all 14)")
     family.add_argument("--volatility", nargs="+", choices=["low", "high"], default=["low", "high"],
                         help="B&dJ's volatilities to run (mean reversion 0.05/day)")
-    family.add_argument("--train-steps", type=int, help="SNAPO training steps (default: the head's)")
-    family.add_argument("--lsmc-nodes", type=int, default=101, help="LSMC levels at least (more where a flow needs)")
+    family.add_argument("--train-steps", type=count(), help="SNAPO training steps (default: the head's)")
+    family.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC levels at least (more where a flow needs)")
     family.set_defaults(handler=run_bench_family)
     cli.accuracy("smoothing", smoothing_accuracy)
     cli.accuracy("monte-carlo", monte_carlo_accuracy)
