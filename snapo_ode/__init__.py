@@ -6,7 +6,14 @@ Entry points that need float64 (sensitivities, stiff solves) raise `Configuratio
 Public names load lazily, on first use (`snapo_ode._lazy`).
 """
 
+from importlib.metadata import PackageNotFoundError, version
+
 from ._lazy import lazy_exports
+
+try:
+    __version__ = version("snapo-ode")
+except PackageNotFoundError:  # run from a source tree that was never installed
+    __version__ = "0+unknown"
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "read_accuracy", "timed_point", "write_accuracy"),

@@ -8,8 +8,8 @@ program this process will run, so whoever can write the cache directory controls
   kept in the directory (`SEAL_KEY`, mode 0600, created on first use). An entry that fails the
   check (truncated, altered, or another key's entry copied under this key's name) is a miss: it
   is rebuilt, and the rebuilt entry replaces it, with one warning.
-- `SealedCache` is the JAX compilation cache's store (`install`, through JAX's
-  `compilation_cache.get_file_cache`, a private hook of the pinned JAX); the export cache
+- A sealed store is the JAX compilation cache's (`install`, through JAX's
+  `compilation_cache.get_file_cache`, a private hook of the JAX releases we admit); the export cache
   (`snapo_ode._exported`) seals its entries with `seal` / `unseal` too.
 """
 
@@ -103,33 +103,43 @@ def write_sealed(secret: bytes, path: pathlib.Path, value: bytes) -> None:
     atomic_write_bytes(path, seal(secret, path.name, value))
 
 
-def _compilation_cache_base():
+def _sealed_cache_class():
+    """`SealedCache`, built on JAX's (private) cache interface when first needed."""
     from jax._src.compilation_cache_interface import CacheInterface
 
-    return CacheInterface
+    class SealedCache(CacheInterface):
+        """JAX's compilation-cache store over a private directory, every entry sealed (see the
+        module docstring); entries are written atomically and never evicted (as JAX's default)."""
 
+        def __init__(self, directory: str | os.PathLike):
+            self._path = pathlib.Path(directory)
+            self._secret = directory_secret(self._path)
 
-class SealedCache(_compilation_cache_base()):
-    """JAX's compilation-cache store over a private directory, every entry sealed (see the module
-    docstring); entries are written atomically and never evicted (as JAX's default)."""
+        def get(self, key: str) -> bytes | None:
+            return read_sealed(self._secret, self._path / f"{key}{_SUFFIX}")
 
-    def __init__(self, directory: str | os.PathLike):
-        self._path = pathlib.Path(directory)
-        self._secret = directory_secret(self._path)
+        def put(self, key: str, value: bytes) -> None:
+            write_sealed(self._secret, self._path / f"{key}{_SUFFIX}", value)
 
-    def get(self, key: str) -> bytes | None:
-        return read_sealed(self._secret, self._path / f"{key}{_SUFFIX}")
+        def clear(self) -> None:
+            for entry in self._path.glob(f"*{_SUFFIX}"):
+                entry.unlink(missing_ok=True)
 
-    def put(self, key: str, value: bytes) -> None:
-        write_sealed(self._secret, self._path / f"{key}{_SUFFIX}", value)
-
-    def clear(self) -> None:
-        for entry in self._path.glob(f"*{_SUFFIX}"):
-            entry.unlink(missing_ok=True)
+    return SealedCache
 
 
 def install() -> None:
-    """Make JAX's persistent compilation cache a `SealedCache` (before its first use)."""
-    from jax._src import compilation_cache
+    """Make JAX's persistent compilation cache a sealed store (before its first use).
 
-    compilation_cache.get_file_cache = lambda path: (SealedCache(path), path)
+    **Raises:** `CacheUnavailable` when this JAX has no such hook (a release other than those
+    `pyproject.toml` admits): its cache would run entries unchecked."""
+    try:
+        from jax._src import compilation_cache
+
+        sealed = _sealed_cache_class()
+        if not callable(getattr(compilation_cache, "get_file_cache", None)):
+            raise AttributeError("jax._src.compilation_cache.get_file_cache")
+    except (ImportError, AttributeError) as error:
+        raise CacheUnavailable(f"this JAX release cannot seal its compilation cache ({error}); install a JAX that "
+                               "pyproject.toml admits to use the cache.") from None
+    compilation_cache.get_file_cache = lambda path: (sealed(path), path)

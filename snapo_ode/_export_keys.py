@@ -19,9 +19,10 @@ import equinox._errors as equinox_errors
 import jax
 import numpy as np
 
+from ._versions import versions
+
 EXPORTED_DIRECTORY = "exported"
 """The entries' directory, inside the compilation cache directory."""
-_VERSIONED = ("snapo-ode", "jax", "jaxlib", "equinox", "diffrax", "lineax", "optimistix")
 _ARRAYS = (jax.Array, np.ndarray, np.generic)
 """What `describe` keys as an array (by dtype and shape), and `ExportedProgram._path`'s memo alike."""
 
@@ -95,21 +96,10 @@ def _source_digest(packages: tuple[str, ...]) -> str:
     return digest.hexdigest()
 
 
-@functools.cache
-def _versions() -> dict:
-    def version(name: str) -> str | None:
-        try:
-            return importlib.metadata.version(name)
-        except importlib.metadata.PackageNotFoundError:
-            return None
-
-    return {"python": sys.version, **{name: version(name) for name in _VERSIONED}}
-
-
 def environment(packages=()) -> dict:
     """What besides its arguments shapes a program: versions, the source of `snapo_ode` and of
     `packages` (top-level names), the backend and the JAX settings tracing reads."""
-    return {"versions": _versions(),
+    return {"versions": {"python": sys.version, **versions()},
             "source": _source_digest(tuple(sorted({"snapo_ode", *packages}))), "backend": jax.default_backend(),
             "x64": bool(jax.config.jax_enable_x64), "precision": str(jax.config.jax_default_matmul_precision),
             "runtime_checks": str(getattr(equinox_errors, "EQX_ON_ERROR", None))}

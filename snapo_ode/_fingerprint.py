@@ -10,23 +10,18 @@ words, so that a mismatch can be shown. `differences(saved, current)` names the 
 import hashlib
 import re
 from collections.abc import Mapping
-from importlib.metadata import PackageNotFoundError, version
 
 import jax
 import numpy as np
 
-STACK = ("snapo-ode", "jax", "jaxlib", "equinox", "diffrax", "optax", "numpy")
+from ._versions import in_words
+
 _ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
 
 
 def package_versions() -> str:
     """`"snapo-ode 0.1.0, jax 0.10.2, ..."`: the packages whose change may change a result."""
-    def one(name):
-        try:
-            return f"{name} {version(name)}"
-        except PackageNotFoundError:
-            return f"{name} (not installed)"
-    return ", ".join(one(name) for name in STACK)
+    return in_words()
 
 
 def _stable(value) -> str:

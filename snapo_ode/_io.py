@@ -13,8 +13,9 @@ command form a set that a reader sees old or new, never mixed.
   wrote before (it holds `MANIFEST`) or an empty one is replaced.
 
 Symbolic links are written through (`output_target`): the link stays and its target gets the new
-content, atomically. A target that exists and is not a regular file (a device, a pipe, a socket)
-is refused with `InputError`, never replaced.
+content, atomically. A stream (a character device such as /dev/null or /dev/stdout, a named pipe)
+is written into, never replaced; any other target that is not a regular file (a directory, a
+block device, a socket) is refused with `InputError`.
 """
 
 import hashlib
@@ -22,6 +23,7 @@ import json
 import os
 import pathlib
 import shutil
+import stat
 import tempfile
 from collections.abc import Mapping
 from typing import Any
@@ -43,11 +45,20 @@ def output_target(path: str | os.PathLike, what: str = "output") -> pathlib.Path
     **Raises:** `InputError` naming `what` (e.g. "--json") when that file exists and is not a
     regular file (a directory, a device such as /dev/null, a pipe or a socket)."""
     target = pathlib.Path(os.path.realpath(path))
-    if target.exists() and not target.is_file():
-        kind = "a directory" if target.is_dir() else "not a regular file (a device, pipe or socket)"
+    if target.exists() and not target.is_file() and not _is_stream(target):
+        kind = "a directory" if target.is_dir() else "not a regular file (a block device or a socket)"
         raise InputError(f"{what} = {str(path)!r}{f' (-> {str(target)!r})' if target != pathlib.Path(path) else ''} "
                          f"is {kind}; give the path of a file to write.")
     return target
+
+
+def _is_stream(path: pathlib.Path) -> bool:
+    """Whether `path` is a character device or a named pipe, written into rather than replaced."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return False
+    return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
 
 
 def _write_temporary(path: pathlib.Path, data: bytes) -> pathlib.Path:
@@ -71,6 +82,10 @@ def _write_temporary(path: pathlib.Path, data: bytes) -> pathlib.Path:
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> pathlib.Path:
     """Write `data` to `path` through a temporary file in the same directory and `os.replace`."""
     path = output_target(path)
+    if _is_stream(path):
+        with open(path, "wb") as stream:
+            stream.write(data)
+        return path
     tmp = _write_temporary(path, data)
     try:
         os.replace(tmp, path)
@@ -104,16 +119,22 @@ def publish(files: Mapping[str | os.PathLike, bytes]) -> list[pathlib.Path]:
     target in the order given (put the index, the file naming the others, last). Returns the
     paths. Nothing is replaced if any temporary write fails."""
     temporaries: list[tuple[pathlib.Path, pathlib.Path]] = []
+    streams = {}
     try:
         for path, data in files.items():
             path = output_target(path)
-            temporaries.append((_write_temporary(path, data), path))
+            if _is_stream(path):
+                streams[path] = data
+            else:
+                temporaries.append((_write_temporary(path, data), path))
         for tmp, path in temporaries:
             os.replace(tmp, path)
     finally:
         for tmp, _ in temporaries:
             tmp.unlink(missing_ok=True)
-    return [path for _, path in temporaries]
+    for path, data in streams.items():
+        atomic_write_bytes(path, data)
+    return [path for _, path in temporaries] + list(streams)
 
 
 def check_replaceable_directory(out: str | os.PathLike, what: str = "--out") -> pathlib.Path:

@@ -53,3 +53,17 @@ def number(low: float = -math.inf, high: float = math.inf, *, low_open: bool = F
 def positive(high: float = math.inf):
     """An option type: a number > 0 (and <= `high`)."""
     return number(0.0, high, low_open=True)
+
+
+class VersionAction(argparse.Action):
+    """`snapo --version`: this package's version, then the stack's, read without importing JAX."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, help="show the versions and exit")
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from ._versions import in_words
+
+        snapo, stack = in_words().split(", ", 1)
+        print(f"{snapo.replace('snapo-ode', 'snapo')}\n{stack}")
+        parser.exit()

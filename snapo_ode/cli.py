@@ -42,7 +42,7 @@ from importlib.metadata import entry_points
 
 from ._exits import EXIT_INPUT_ERROR, configure_or_warn, ended
 from ._first_result import add_first_result_bench
-from ._options import OneLineParser, count, number, positive
+from ._options import OneLineParser, VersionAction, count, number, positive
 from ._validation import InputError
 
 __all__ = ["CommandLine", "OneLineParser", "add_common_options", "add_device_options", "add_training_options",
@@ -136,6 +136,7 @@ class CommandLine:
             prog="snapo",
             description="Smooth Neural Adjoint Policy Optimization on differentiable simulators.",
         )
+        self.parser.add_argument("--version", action=VersionAction)
         self._verbs = self.parser.add_subparsers(dest="verb", metavar="VERB")
         bench = self._verbs.add_parser("bench", help="run a benchmark, print its table, write CSV and JSON")
         self._benches = bench.add_subparsers(dest="bench", metavar="NAME")
@@ -292,7 +293,10 @@ def parse(cli: CommandLine, argv: Sequence[str] | None = None) -> argparse.Names
 def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> int:
     """Entry point of the `snapo` console script."""
     cli = build(plugins)
-    args = parse(cli, argv)
+    try:
+        args = parse(cli, argv)
+    except SystemExit as exited:  # --help, --version, or a one-line usage error (exit 2)
+        return exited.code if isinstance(exited.code, int) else EXIT_INPUT_ERROR
     handler = getattr(args, "handler", None)
     if handler is None:
         cli.parser.print_help()

@@ -49,8 +49,9 @@ def test_outputs_that_cannot_be_written_are_refused_before_any_computation(tmp_p
 def test_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert "curve file" in error_of(["gas", "--curve", str(tmp_path / "missing.csv")], capsys)
     assert "facility file" in error_of(["gas", "--facility", str(tmp_path / "missing.json")], capsys)
-    assert "add --stochastic" in error_of(["gas", "--volatility", "-1"], capsys)
-    assert "train_steps = 0;" in error_of(["gas", "--train-steps", "0"], capsys)  # a count, not 0.0
+    assert "add --stochastic" in error_of(["gas", "--volatility", "0.5"], capsys)
+    assert "--volatility: -1 is out of range" in error_of(["gas", "--volatility", "-1"], capsys)
+    assert "--train-steps: 0 is out of range: allowed >= 1" in error_of(["gas", "--train-steps", "0"], capsys)
     bad_curve = tmp_path / "curve.csv"
     bad_curve.write_text("day,price\n0,3.0\n1,abc\n")
     assert "line 3" in error_of(["gas", "--curve", str(bad_curve)], capsys)

@@ -142,14 +142,16 @@ def test_yaml_aliases_are_refused_before_cantera_reads_the_file(tmp_path, capsys
     assert f"{laughs}:2: the YAML alias *a is refused" in err
 
 
-def test_outputs_write_through_links_and_refuse_devices(tmp_path, capsys):
+def test_outputs_write_through_links_and_into_streams(tmp_path, capsys):
     target = tmp_path / "real.json"
     target.write_text("{}")
     link = tmp_path / "link.json"
     link.symlink_to(target)
     snapo_ode.atomic_write_json(link, {"a": 1})
     assert link.is_symlink() and json.loads(target.read_text()) == {"a": 1}
-    assert "not a regular file" in error_of(["gas", "--json", "/dev/null"], capsys)
+    assert "is a directory" in error_of(["gas", "--json", str(tmp_path)], capsys)
+    snapo_ode.atomic_write_json("/dev/null", {"a": 1})  # a stream is written into, not replaced
+    assert pathlib.Path("/dev/null").is_char_device()
     directory = tmp_path / "report-real"
     snapo_ode.publish_directory(directory, {"a.txt": b"1"})
     linked = tmp_path / "report"
@@ -226,11 +228,7 @@ def test_every_numeric_option_is_range_checked_as_it_is_parsed(capsys):
                           (["pharma", "train", "--sharpness", "-1"], "allowed (0, inf]"),
                           (["gas", "--stochastic", "--volatility", "nan"], "out of range"),
                           (["bench", "pharma", "--repeats", "x"], "'x' is not a whole number")):
-        with pytest.raises(SystemExit) as exited:
-            main(argv)
-        err = capsys.readouterr().err
-        assert exited.value.code == 2 and err.startswith("snapo: error: ") and err.count("\n") == 1, err
-        assert message in err, err
+        assert message in error_of(argv, capsys)
 
 
 PRINTING_SCRIPT = """
@@ -246,20 +244,42 @@ sys.exit(main(["report", "toy", "--out", sys.argv[2]], plugins=[register]))
 """
 
 
-@pytest.mark.skipif(snapo_ode.find_chromium() is None, reason="no headless Chromium (Debian package chromium)")
-def test_sigterm_while_printing_the_pdf_leaves_no_temporary_files(tmp_path):
+# A printer that works as Chromium does: helper processes, and files of its own under $TMPDIR.
+FAKE_CHROMIUM = """#!/bin/sh
+mkdir -p "$TMPDIR/org.chromium.fake"
+(sleep 2; touch "$TMPDIR/org.chromium.fake/late") &
+touch "$TMPDIR/org.chromium.fake/started"
+sleep 60
+"""
+
+
+def test_sigterm_while_printing_the_pdf_leaves_no_temporary_files_or_processes(tmp_path):
     temporary = tmp_path / "tmp"
     temporary.mkdir()
+    printer = tmp_path / "chromium"
+    printer.write_text(FAKE_CHROMIUM)
+    printer.chmod(0o755)
     tests = str(pathlib.Path(__file__).parent)
     process = subprocess.Popen([sys.executable, "-c", PRINTING_SCRIPT, tests, str(tmp_path / "report")],
-                               stderr=subprocess.PIPE, text=True, env={**os.environ, "TMPDIR": str(temporary)})
+                               stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "TMPDIR": str(temporary), "SNAPO_CHROMIUM": str(printer)})
     deadline = time.monotonic() + 120
-    while not list(temporary.glob("snapo-pdf-*/report.html")) and time.monotonic() < deadline:
+    while not list(temporary.glob("snapo-pdf-*/org.chromium.fake/started")) and time.monotonic() < deadline:
         time.sleep(0.05)
-    time.sleep(0.3)  # Chromium is printing
     process.send_signal(signal.SIGTERM)
-    err = process.communicate(timeout=120)[1]
+    err = process.communicate(timeout=60)[1]
     assert process.returncode == 143, err
     assert err.strip().splitlines()[-1] == "snapo: interrupted by SIGTERM; no result was written"
-    time.sleep(1.0)
+    time.sleep(3)  # the helper would have written by now, had it survived
     assert not list(temporary.iterdir()) and not (tmp_path / "report").exists()
+
+
+def test_design_space_options_are_refused_before_the_chain_is_built(tmp_path, capsys, monkeypatch):
+    from chemistry.pharma import _cli
+
+    monkeypatch.setattr(_cli, "chain_from_args", lambda args: pytest.fail("computed before the options were checked"))
+    for verb in (["report", "pharma", "--no-pdf"], ["pharma", "design-space"]):
+        err = error_of([*verb, "--x", "<bad>", "--out", str(tmp_path / "o")], capsys)
+        assert "x = '<bad>' is not one of: 'r1_temperature'" in err
+    assert "verify_points = 500" in error_of(["pharma", "design-space", "--verify-points", "500", "--out",
+                                              str(tmp_path / "o")], capsys)
