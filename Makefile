@@ -17,7 +17,7 @@ demo: $(STAMP)
 	$(BIN)/snapo demo
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow"
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow" --durations=25
 
 # The tests marked slow (today: the gradients study of snapo bench accuracy --quick, ~17 minutes).
 test-slow: $(STAMP)

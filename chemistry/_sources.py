@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ruamel.yaml import YAML, YAMLError
-from ruamel.yaml.events import AliasEvent
+from ruamel.yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
 from snapo_ode import InputError, read_text
 
@@ -43,7 +43,7 @@ def load(path: Path) -> Source:
     """The `Source` of the YAML file at `path`.
 
     **Raises:** `InputError` for a missing or oversized file, invalid YAML or non-UTF-8 text, a
-    YAML alias (`refuse_aliases`), or a document that is not a mapping."""
+    YAML alias expansion past the bound (`refuse_aliases`), or a document that is not a mapping."""
     if not path.is_file():
         raise InputError(f"mechanism path {str(path)!r} is not a file.")
     text = read_text(path, "mechanism")
@@ -60,15 +60,37 @@ def load(path: Path) -> Source:
     return Source(path, document, UnitSystem(document.get("units")))
 
 
+EXPANSION_LIMIT = 10  # a file's aliases may expand it to at most 10 times its own nodes (+ SLACK)
+EXPANSION_SLACK = 100_000
+
+
 def refuse_aliases(path: Path, text: str) -> None:
-    """Raise `InputError` (file:line) at the first YAML alias (`*name`) of `text`: Cantera expands
-    aliases wherever they are, even under a key it ignores, so ten nested lines of them (a
-    "billion laughs") fill the memory. Mechanism files do not need them: write the content out."""
+    """Raise `InputError` (file:line) where the YAML aliases (`*name`) of `text` expand it past
+    EXPANSION_LIMIT times its own nodes (plus EXPANSION_SLACK): Cantera expands aliases wherever
+    they are, even under a key it ignores, so ten nested lines of them (a "billion laughs") fill
+    the memory, while a mechanism's few aliases (a shared rate table) pass."""
+    expanded, written = {}, 0
+    open_nodes = [[None, 0]]  # (anchor, expanded size) of each collection being read
     for event in YAML(typ="rt").parse(text):
-        if isinstance(event, AliasEvent):
-            raise InputError(f"mechanism file {path}:{event.start_mark.line + 1}: the YAML alias *{event.anchor} is "
-                             "refused (aliases can expand to gigabytes when Cantera reads the file); write the "
-                             "aliased content out in full.")
+        if isinstance(event, (ScalarEvent, AliasEvent, CollectionStartEvent)):
+            written += 1
+        if isinstance(event, CollectionStartEvent):
+            open_nodes.append([event.anchor, 1])
+            continue
+        if isinstance(event, CollectionEndEvent):
+            anchor, size = open_nodes.pop()
+        elif isinstance(event, (ScalarEvent, AliasEvent)):
+            anchor = event.anchor if isinstance(event, ScalarEvent) else None
+            size = expanded.get(event.anchor, 1) if isinstance(event, AliasEvent) else 1
+        else:
+            continue
+        if anchor is not None:
+            expanded[anchor] = size
+        open_nodes[-1][1] += size
+        if sum(node[1] for node in open_nodes) > EXPANSION_LIMIT * written + EXPANSION_SLACK:
+            raise InputError(f"mechanism file {path}:{event.start_mark.line + 1}: its YAML aliases (*name) expand it "
+                             f"past {EXPANSION_LIMIT} times its own size (Cantera would expand them all in memory); "
+                             "write the aliased content out in full.")
 
 
 def _data_directories() -> list[Path]:

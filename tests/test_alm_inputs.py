@@ -94,5 +94,5 @@ def test_cli_reports_bad_input_without_compiling(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(jax, "jit", no_compile)
     assert main(["alm", "--horizon-months", "0", "--json", str(tmp_path / "o.json")], plugins=[register_alm]) == 2
-    assert "horizon_months = 0" in capsys.readouterr().err
+    assert "--horizon-months: 0 is out of range: allowed >= 1" in capsys.readouterr().err
     assert not (tmp_path / "o.json").exists()

@@ -136,7 +136,7 @@ def test_absent_effect_is_untraced_and_matches_neutral_parameters(effect, neutra
 
 
 @pytest.mark.parametrize("change, message", [
-    (dict(capacity=0.0), r"capacity = 0.0 is outside the allowed range \(0, inf\]"),
+    (dict(capacity=0.0), r"capacity = 0.0 is outside the allowed range \(0, 1e\+12\]"),
     (dict(initial_inventory=2e6), r"initial_inventory = 2000000.0 is outside the allowed range \[0, 1e\+06\]"),
     (dict(injection_ratchet=[[0.0, 1.0], [0.5, 1.0], [0.4, 1.0], [1.0, 1.0]]), "must be strictly increasing"),
     (dict(injection_ratchet=[[0.0, 1.0]]), "at least two rows"),
