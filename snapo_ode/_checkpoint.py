@@ -63,13 +63,11 @@ def load_checkpoint(path: str | os.PathLike, like, resume_like=None):
     where = f"checkpoint {str(path)!r}"
     try:
         with open(path, "rb") as handle:
-            header = handle.readline(MAX_HEADER_BYTES)
             try:
-                info = validate(CheckpointInfo, json.loads(header), where).model_dump()
-            except (ValueError, RecursionError) as error:
-                if isinstance(error, InputError):
-                    raise
+                header = json.loads(handle.readline(MAX_HEADER_BYTES))
+            except (ValueError, RecursionError):
                 raise InputError(f"{where}: the first line is not a checkpoint's JSON header.") from None
+            info = validate(CheckpointInfo, header, where).model_dump()
             best = eqx.tree_deserialise_leaves(handle, like)
             if resume_like is None:
                 return best, info

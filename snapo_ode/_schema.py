@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import pydantic
 
-from ._validation import InputError
+from ._validation import InputError, _shorten
 
 MAX_FILE_BYTES = 64 * 2**20  # a user file larger than this is refused before it is parsed
 STRICT_SCHEMA = pydantic.ConfigDict(strict=True, extra="forbid", frozen=True)
@@ -81,11 +81,6 @@ def _line_of(text: str | None, location: Sequence) -> str:
         return ""
     match = re.search(rf"""["']?{re.escape(names[-1])}["']?\s*:""", text)
     return "" if match is None else f", line {text.count(chr(10), 0, match.start()) + 1}"
-
-
-def _shorten(value) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def validate(model: type[pydantic.BaseModel], data, where: str, text: str | None = None):
