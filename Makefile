@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow bench accuracy clean
+.PHONY: demo test test-slow wheel-check bench accuracy clean
 
 $(STAMP): pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,11 @@ test: $(STAMP)
 # The tests marked slow (today: the gradients study of snapo bench accuracy --quick, ~17 minutes).
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
+
+# The package as a library: its wheel installed into a fresh environment with the newest releases
+# pyproject.toml's ranges allow, and run from outside the checkout (CI runs it after `make test`).
+wheel-check:
+	bash .ci/wheel_smoke $(PYTHON)
 
 bench: $(STAMP)
 	$(BIN)/snapo bench gas
