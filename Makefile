@@ -19,9 +19,11 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow" --durations=25
 
-# The tests marked slow (today: the gradients study of snapo bench accuracy --quick, ~17 minutes).
+# The tests marked slow (README, "Tests": the accuracy page's stiff and gradients studies, the
+# kinetics bench with a batch, gri30's Rodas5 gradients and concentration Jacobian, the pharma
+# design space on two devices, vmapped against one-at-a-time ignition gradients; ~35 minutes).
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m slow --durations=10
 
 # The package as a library: its wheel installed into a fresh environment with the newest releases
 # pyproject.toml's ranges allow, and run from outside the checkout (CI runs it after `make test`).

@@ -1,27 +1,21 @@
 """Shared test scaffolding: float64 and the compilation cache on once for the whole session
 (`snapo_ode.configure()`), Agg plotting, and a key fixture.
 
-Each pytest-xdist worker compiles into a cache directory of its own (`SNAPO_CACHE_DIR`, unless
-set: the default cache's `tests/WORKER`), inherited by the `snapo` processes its tests start: two
-workers never read and write one cache at once (a worker died of a segmentation fault inside
-JAX's cache read in a CI run with a shared directory; not reproduced since). The tests of
-sharing one cache between processes make their own directories.
+Every test process, the pytest-xdist workers and the `snapo` processes their tests start, compiles
+through one persistent cache (`SNAPO_CACHE_DIR`, unless set: the default cache's `tests`): a
+program that several tests build (the gas sample's valuation, the pharma chain's solves, a CLI
+verb run in-process three times) compiles once per run, and a second run of the suite reads what
+the first compiled. Entries are written atomically and read whole (`snapo_ode._cache_trust`),
+so the two workers share the directory safely. The tests of the cache itself (sharing one
+between processes, swapped and corrupt entries) make their own directories.
 
-The worker processes themselves write no persistent cache entries (`jax_enable_compilation_cache`
-off in-process; the `snapo` processes their tests start still use the worker's directory): a
-long-lived worker that had compiled a few hundred programs twice died of a segmentation fault
-inside XLA's executable serialisation (`put_executable_and_time`, pharma programs), and
-pytest-xdist then hung until CI's limit. Each program compiles once per worker either way, and
-JAX's in-memory caches serve repeats within the process; the cache itself is tested across
-processes (`test_core_cache.py`, `test_reliability.py`).
-
-After each test module the worker drops every compiled program (`jax.clear_caches()`), and
-before each test once it holds half the kernel's memory-mapping limit (`relieve_mappings`, checked
-when something compiled since): the
-cause of those crashes, found later, is that every compiled CPU program stays mapped while JAX's
-caches hold it (~1,700 mappings for a stiff solve and its gradient), and a worker that compiled
-a few dozen reached Linux's 65,530 (`LLVM ERROR: Unable to allocate section memory` in one run).
-Modules rarely share programs, so few recompile."""
+After each test module the worker drops every compiled program from memory
+(`jax.clear_caches()`), and before each test, once it holds half the kernel's memory-mapping
+limit, it relieves the mappings (`relieve_mappings`, checked when something compiled since):
+every compiled CPU program stays mapped while JAX's caches hold it (~1,700 mappings for a stiff
+solve and its gradient), and a worker that compiled a few dozen reached Linux's 65,530 (`LLVM
+ERROR: Unable to allocate section memory`, and segmentation faults inside XLA's executable
+serialisation, before this relief)."""
 
 import os
 
@@ -39,10 +33,8 @@ def pytest_configure(config):
     workerinput = getattr(config, "workerinput", None)
     if workerinput is None and getattr(config.option, "numprocesses", None):
         return  # the xdist controller runs no test; its environment is the workers'
-    worker = workerinput["workerid"] if workerinput else "main"
-    os.environ.setdefault("SNAPO_CACHE_DIR", str(snapo_ode.default_cache_dir().parent / "tests" / worker))
+    os.environ.setdefault("SNAPO_CACHE_DIR", str(snapo_ode.default_cache_dir().parent / "tests"))
     snapo_ode.configure()
-    jax.config.update("jax_enable_compilation_cache", False)
 
 
 @pytest.fixture(autouse=True, scope="module")

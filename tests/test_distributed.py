@@ -89,7 +89,7 @@ def test_the_sharded_mean_and_its_gradient_equal_the_analytic_ones():
         import jax, jax.numpy as jnp, numpy as np
         import snapo_ode
         snapo_ode.use_cpu_devices(4)
-        snapo_ode.configure(cache=False)
+        snapo_ode.configure()
         mesh = snapo_ode.sample_mesh()
         assert mesh.size == 4
         draw = lambda key: jax.random.normal(key, (3, 400))
@@ -109,6 +109,9 @@ def test_the_sharded_mean_and_its_gradient_equal_the_analytic_ones():
     assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-3000:]
 
 
+# ~2 minutes with a cold cache: `make test-slow`; the sharded draws and Jacobians share their mesh code
+# with ALM's runs on 2 and 4 devices and in two processes, above.
+@pytest.mark.slow
 def test_the_pharma_design_space_on_two_devices_equals_one_device():
     """The design space's full-model draws (`shifted_cqas`), 7 rows split over 2 devices (padded
     to 8), and its Jacobians at 3 grid points over 2 devices, against one device: to 1e-12."""
@@ -116,7 +119,7 @@ def test_the_pharma_design_space_on_two_devices_equals_one_device():
         import numpy as np
         import snapo_ode
         snapo_ode.use_cpu_devices(2)
-        snapo_ode.configure(cache=False)
+        snapo_ode.configure()
         from chemistry.pharma import PharmaChain, make_cpps, shifted_cqas
         from chemistry.pharma._sensitivities import input_names, jacobians_function
         chain = PharmaChain()

@@ -121,6 +121,7 @@ def test_batched_gradients_match_central_bumps_of_the_batch(mechanism, batch):
     assert np.max(np.abs(sensitivities)) > 0.1  # late in the induction: sensitivities are large
 
 
+@pytest.mark.slow  # ~2.5 minutes; the batch's gradients are checked against bumps above
 def test_vmapped_gradients_equal_one_reactor_at_a_time(mechanism):
     """Reactors that finish in fewer steps than the slowest go on through the vmapped loop's
     discarded steps (h = 0): their gradients must be those of a reactor solved alone (they were
@@ -175,6 +176,10 @@ def test_bad_solve_arguments_are_refused_before_compiling(monkeypatch, mechanism
     _refuses(monkeypatch, r"the batch has 10 species", lambda: final_temperature_batch(other, batch, TIME))
 
 
+# ~5 minutes (every program of the single and the batched bench): `make test-slow`. The batch's
+# solves, gradients and bumps are checked above; the bench's own end-to-end run and its fields
+# only here.
+@pytest.mark.slow
 def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
     assert main(["bench", "kinetics", "--out", str(tmp_path), "--mechanisms", "h2o2", "--repeats", "1",
                  "--batch", "3", "--batch-scaling", "1", "2"]) == 0
