@@ -231,6 +231,9 @@ def read_mechanism(cls, path, phase=None):
 
     species_nodes = phase_species(sources, phase_node)
     species = [str(node["name"]) for _, node in species_nodes]
+    if not species:
+        raise InputError(f"{where}: no species (neither the phase's `species` nor a `species` section "
+                         "lists one); a mechanism needs at least one.")
     thermo = species_thermo(species_nodes)
     volumes = molar_volumes(species_nodes) if thermo_model == "ideal-condensed" else np.zeros(len(species))
     reference_pressure = ONE_ATM

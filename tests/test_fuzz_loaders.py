@@ -85,6 +85,15 @@ def test_mutated_mechanism_yaml(tmp_path, mechanism_lines, data):
         assert mechanism.n_species > 0
 
 
+def test_a_mechanism_cut_before_its_species_is_refused_naming_the_phase(tmp_path, mechanism_lines):
+    # Found by the fuzz above: a file that ends inside its phase (no species list, no section)
+    # loaded as a mechanism of no species.
+    path = tmp_path / "mechanism.yaml"
+    path.write_text("".join(mechanism_lines[:mechanism_lines.index("  thermo: ideal-gas\n") + 1]))
+    with pytest.raises(snapo_ode.InputError, match=r"mechanism.yaml:\d+: phase 'gas': no species"):
+        Mechanism.from_yaml(path)
+
+
 @pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_rates_at_the_magnitude_bound_load_without_an_overflow_warning_and_beyond_it_are_refused():
     inputs = gs.make_inputs({**FACILITY, "max_injection": gs.MAX_QUANTITY}, gs.sample_curve())
