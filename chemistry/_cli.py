@@ -24,9 +24,13 @@ def run_check(args) -> int:
 
 
 def run_sweep(args) -> int:
-    from ._sweep import markdown_table, sweep
+    from snapo_ode import atomic_write_json
 
-    print(markdown_table(sweep(args.files or None, n_states=args.states, seed=args.seed)))
+    from ._sweep import as_json, markdown_table, sweep
+
+    results = sweep(args.files or None, n_states=args.states, seed=args.seed)
+    print(markdown_table(results))
+    print(f"  written: {atomic_write_json(args.json, as_json(results, n_states=args.states, seed=args.seed))}")
     return 0
 
 

@@ -103,6 +103,14 @@ def markdown_table(results: list[PhaseSweep]) -> str:
     return "\n".join(lines)
 
 
+def as_json(results: list[PhaseSweep], *, n_states: int, seed: int) -> dict:
+    """The sweep's JSON (`snapo kinetics sweep --json`): the random states' count and seed, and one
+    entry per phase with `PhaseSweep`'s fields (`rates` as its `RateComparison` fields; the
+    fields that do not apply, null)."""
+    phases = [{**result._asdict(), "rates": result.rates and result.rates._asdict()} for result in results]
+    return {"states": n_states, "seed": seed, "phases": phases}
+
+
 def sweep(paths: list[Path] | None = None, *, n_states: int = 4, seed: int = 0) -> list[PhaseSweep]:
     """`sweep_phase` on every ideal-gas phase of the YAML files `paths` (default: every `*.yaml`
     under Cantera's data directory)."""

@@ -4,6 +4,7 @@ atm, random compositions), and its species thermo to 1e-12, or is refused with a
 names the feature. The phase-selection rules the shipped files rely on (species and reactions from
 another file, undeclared elements and third bodies) are refused where Cantera refuses them."""
 
+import json
 import re
 import textwrap
 
@@ -111,10 +112,15 @@ def test_a_missing_included_file_is_named(tmp_path):
         Mechanism.from_yaml(path)
 
 
-def test_sweep_command_tables_the_phases_of_the_files_given(capsys):
+def test_sweep_command_tables_the_phases_of_the_files_given_and_writes_its_json(capsys, tmp_path):
     files = [str(DIRECTORY / "air.yaml"), str(DIRECTORY / "airNASA9.yaml")]
-    assert main(["kinetics", "sweep", "--states", "2", *files]) == 0
+    assert main(["kinetics", "sweep", "--states", "2", "--out", str(tmp_path), *files]) == 0
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| air")]
     assert rows[0].startswith("| air.yaml | air | 8 | 8 | loaded: rates ")
     assert re.fullmatch(r"\| airNASA9.yaml \| airNASA9 \| 11 \| 0 \| loaded \(no kinetics\); thermo \d\.\de-\d\d \|", rows[1])
     assert len(rows) == 2
+    written = json.loads((tmp_path / "kinetics-sweep.json").read_text())
+    assert written["states"] == 2 and [(p["phase"], p["n_species"], p["n_reactions"]) for p in written["phases"]] == [
+        ("air", 8, 8), ("airNASA9", 11, 0)]
+    air = written["phases"][0]
+    assert air["refused"] is None and air["rates"]["n_states"] == 2 and air["rates"]["rates_of_progress"] < 1e-10
