@@ -38,4 +38,7 @@ def test_bench_writes_the_scaling_table(tmp_path, capsys):
     assert all(float(row["max_rel_diff"]) <= 1e-6 for row in rows)
     assert (tmp_path / "alm_scaling.png").stat().st_size > 1000
     assert json.loads((tmp_path / "alm_scaling.json").read_text())["rows"][0]["n_risk_factors"] == 10
+    # Every bench's names, the same table: bench_alm.{csv,json}.
+    assert (tmp_path / "bench_alm.csv").read_text() == (tmp_path / "alm_scaling.csv").read_text()
+    assert json.loads((tmp_path / "bench_alm.json").read_text()) == json.loads((tmp_path / "alm_scaling.json").read_text())
     assert "| 20 |" in capsys.readouterr().out

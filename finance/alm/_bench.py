@@ -8,7 +8,7 @@ import pathlib
 import jax
 from tqdm.auto import tqdm
 
-from snapo_ode import Column, check_count, write_table
+from snapo_ode import Column, check_count, json_bytes, jsonable, records_csv, write_table
 from snapo_ode import format_table as markdown_table
 
 from ._factors import layout_for
@@ -62,7 +62,8 @@ def format_table(rows: list[dict]) -> str:
 
 
 def write_scaling(rows: list[dict], out_dir) -> list[pathlib.Path]:
-    """Write `alm_scaling.csv`, `alm_scaling.png` and `alm_scaling.json` into `out_dir`, one set."""
+    """Write `bench_alm.csv` and `bench_alm.json` (every bench's names), `alm_scaling.png`, and the
+    same table under its first names `alm_scaling.csv` and `alm_scaling.json`, into `out_dir`, one set."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -86,4 +87,5 @@ def write_scaling(rows: list[dict], out_dir) -> list[pathlib.Path]:
     image = io.BytesIO()
     figure.savefig(image, format="png", dpi=120)
     plt.close(figure)
-    return write_table(out_dir, "alm_scaling", rows, files={"alm_scaling.png": image.getvalue()})
+    first_names = {"alm_scaling.csv": records_csv(rows), "alm_scaling.json": json_bytes(jsonable({"rows": list(rows)}))}
+    return write_table(out_dir, "bench_alm", rows, files={"alm_scaling.png": image.getvalue(), **first_names})

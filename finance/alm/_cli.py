@@ -87,7 +87,7 @@ def register_alm(cli: CommandLine) -> None:
     parser.set_defaults(handler=_alm)
 
     bench = cli.bench("alm", "sensitivity cost against the number of risk factors: adjoint vs "
-                             "batched bump-and-revalue vs forward mode (writes alm_scaling.{csv,json,png})")
+                             "batched bump-and-revalue vs forward mode (writes bench_alm.{csv,json}, alm_scaling.png, and the table as alm_scaling.{csv,json})")
     bench.add_argument("--risk-factors", type=count(), nargs="+",
                        default=[10, 50, 100, 500, 1000, 2000], metavar="N")
     bench.add_argument("--paths", type=count(), default=128, help="paths (default 128)")
