@@ -85,6 +85,16 @@ def test_mutated_mechanism_yaml(tmp_path, mechanism_lines, data):
         assert mechanism.n_species > 0
 
 
+def test_a_curve_with_a_carriage_return_in_a_field_loads_or_is_refused_in_one_line(tmp_path):
+    # Found by the fuzz above: a lone "\r" inside a field was csv's traceback, not an InputError.
+    path = tmp_path / "curve.csv"
+    path.write_text("day,price\n0,3.1\r0\n1,3.2\n", newline="")
+    with pytest.raises(snapo_ode.InputError, match=r"curve.csv, line 3: expected 'day,price'; got '0'"):
+        gs.load_curve(path)
+    path.write_bytes(b"day,price\r0,3.1\r1,3.2\r")  # a file of carriage returns only
+    np.testing.assert_array_equal(gs.load_curve(path), [3.1, 3.2])
+
+
 def test_a_mechanism_cut_before_its_species_is_refused_naming_the_phase(tmp_path, mechanism_lines):
     # Found by the fuzz above: a file that ends inside its phase (no species list, no section)
     # loaded as a mechanism of no species.

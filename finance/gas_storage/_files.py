@@ -56,7 +56,15 @@ def load_curve(path: str | os.PathLike) -> np.ndarray:
 
     **Raises:** `InputError` naming the file, and the line, for a missing file, a wrong header, a
     day or price that is not a number, or days out of order."""
-    reader = csv.reader(io.StringIO(read_text(path, "curve")))
+    # Universal newlines: a lone carriage return (old spreadsheets) ends a line, as in any text reader.
+    reader = csv.reader(io.StringIO(read_text(path, "curve"), newline=None))
+    try:
+        return _curve_rows(path, reader)
+    except csv.Error as error:
+        raise InputError(f"curve file {path}, line {reader.line_num}: not a CSV row ({error}).") from None
+
+
+def _curve_rows(path, reader) -> np.ndarray:
     header = next(reader, None)
     if header is None or [f.strip() for f in header] != ["day", "price"]:
         raise InputError(f"curve file {path}: the header must be 'day,price'; got {header}.")
