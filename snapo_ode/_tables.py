@@ -49,11 +49,14 @@ def records_csv(rows: Sequence[Mapping]) -> bytes:
 
 
 def write_table(out: str | os.PathLike, name: str, rows: Sequence[Mapping], extra: Mapping | None = None,
-                files: Mapping[str, bytes] | None = None) -> list[pathlib.Path]:
+                files: Mapping[str, bytes] | None = None, also_as: Sequence[str] = ()) -> list[pathlib.Path]:
     """Write `rows` as `out/name.csv` (`records_csv`), any other `files` (name -> bytes, e.g. a
     plot) and `{"rows": rows, **extra}` as `out/name.json`, as one set (`snapo_ode.publish`, the
-    JSON last). Returns the paths, the CSV first and the JSON last."""
+    JSON last); the same table also under each name of `also_as` (a bench's earlier names).
+    Returns the paths, the CSV first and the JSON last."""
     out = pathlib.Path(out)
-    return publish({out / f"{name}.csv": records_csv(rows),
+    table, payload = records_csv(rows), json_bytes(jsonable({"rows": list(rows), **(extra or {})}))
+    names = (name, *also_as)
+    return publish({**{out / f"{each}.csv": table for each in names},
                     **{out / file: data for file, data in (files or {}).items()},
-                    out / f"{name}.json": json_bytes(jsonable({"rows": list(rows), **(extra or {})}))})
+                    **{out / f"{each}.json": payload for each in reversed(names)}})

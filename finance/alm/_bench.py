@@ -8,7 +8,7 @@ import pathlib
 import jax
 from tqdm.auto import tqdm
 
-from snapo_ode import Column, check_count, json_bytes, jsonable, records_csv, write_table
+from snapo_ode import Column, check_count, write_table
 from snapo_ode import format_table as markdown_table
 
 from ._factors import layout_for
@@ -87,5 +87,4 @@ def write_scaling(rows: list[dict], out_dir) -> list[pathlib.Path]:
     image = io.BytesIO()
     figure.savefig(image, format="png", dpi=120)
     plt.close(figure)
-    first_names = {"alm_scaling.csv": records_csv(rows), "alm_scaling.json": json_bytes(jsonable({"rows": list(rows)}))}
-    return write_table(out_dir, "bench_alm", rows, files={"alm_scaling.png": image.getvalue(), **first_names})
+    return write_table(out_dir, "bench_alm", rows, files={"alm_scaling.png": image.getvalue()}, also_as=("alm_scaling",))
