@@ -190,15 +190,21 @@ def test_sigint_and_sigterm_save_the_checkpoint_and_exit_quietly(tmp_path, signa
     out = tmp_path / "run"
     command = [sys.executable, "-m", "snapo_ode.cli", "gas", "--train-steps", "1000000", "--no-progress",
                "--out", str(out)]
-    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
-    checkpoint = out / "gas.checkpoint.eqx"
-    deadline = time.monotonic() + 600  # a cold cache on a loaded machine: the first compile takes minutes
-    while not checkpoint.exists() and time.monotonic() < deadline and process.poll() is None:
-        time.sleep(0.2)
-    assert checkpoint.exists(), "no checkpoint before the deadline"
-    time.sleep(0.5)  # training, not compiling: the signal lands between steps
-    process.send_signal(signal_number)
-    err = process.communicate(timeout=120)[1]
+    # A test run started as a background job inherits an ignored SIGINT, and a program keeps an
+    # ignored SIGINT ignored (as `nohup` wants): give the run Ctrl-C's default disposition.
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        checkpoint = out / "gas.checkpoint.eqx"
+        deadline = time.monotonic() + 600  # a cold cache on a loaded machine: the first compile takes minutes
+        while not checkpoint.exists() and time.monotonic() < deadline and process.poll() is None:
+            time.sleep(0.2)
+        assert checkpoint.exists(), "no checkpoint before the deadline"
+        time.sleep(0.5)  # training, not compiling: the signal lands between steps
+        process.send_signal(signal_number)
+        err = process.communicate(timeout=120)[1]
+    finally:
+        process.kill()  # never left running (and taking a core) after a failure
     assert process.returncode == code, err
     name = "SIGTERM" if signal_number == signal.SIGTERM else "SIGINT"
     assert err.strip().splitlines()[-1].startswith(f"snapo: interrupted by {name}; the training so far is in")
