@@ -83,7 +83,9 @@ def test_the_relaxed_grid_never_tightens_a_rate_and_is_exact_on_whole_steps():
         relaxed = dual.relaxed_grid(inputs, scene, nodes)
         # Every fill inside the two cells beside a level: the relaxed rate is at least the exact one there.
         fill = np.linspace(0, 1, 20_001)
-        level = np.clip(np.rint(fill * (nodes - 1)).astype(int), 0, nodes - 1)
+        capacity = float(inputs.capacity)
+        level = np.clip(np.rint((fill * capacity - relaxed.first_level) / relaxed.spacing).astype(int), 0,
+                        relaxed.nodes - 1)
         kept = 1 - float(inputs.fuel_loss)
         exact_in = kept * float(inputs.max_injection) * np.interp(fill, *np.asarray(inputs.injection_ratchet).T)
         exact_out = float(inputs.max_withdrawal) * np.interp(fill, *np.asarray(inputs.withdrawal_ratchet).T)
@@ -272,3 +274,25 @@ def test_lattice_policy_and_its_dual_bracket_the_optimum_tightly(high_volatility
     assert gaps["lattice"].mean() <= 5e-4 * upper.mean()
     assert gaps["lsmc"].mean() > gaps["lattice"].mean()
     assert np.asarray(bound.values).mean() > upper.mean()
+
+
+def test_the_bound_hands_out_no_free_gas_at_an_off_grid_start_and_end():
+    # Before: the start rounded up and the end down to a level, so perfect foresight sold up to a
+    # step of gas it never had (~1.5% of the value on the family's fast facilities). Now both are
+    # levels; what remains is the room the grid adds beyond [0, capacity], worth at most that room
+    # cycled over every price rise of the curve.
+    facility, curve = CASES["bdj"]()
+    facility = dict(facility, capacity=50_000.0, initial_inventory=21_234.5, terminal_inventory_min=21_234.5)
+    inputs = gs.make_inputs(facility, curve[120:160], volatility=0.0, mean_reversion=BDJ_MEAN_REVERSION)
+    scene = gs.stochastic_scene()
+    relaxed = dual.relaxed_grid(inputs, scene)
+    levels = relaxed.levels
+    assert levels[relaxed.start_nodes[0]] == levels[relaxed.start_nodes[1]] == pytest.approx(21_234.5, abs=1e-6)
+    assert levels[relaxed.terminal_node] == pytest.approx(21_234.5, abs=1e-6)
+    assert -relaxed.spacing < levels[0] <= 0 and 50_000 <= levels[-1] < 50_000 + relaxed.spacing
+    lp = gs.solve_intrinsic(inputs, gs.deterministic_scene()).value
+    forward = np.asarray(inputs.forward_curve)[None]
+    bound = float(dual.dual_bound(None, inputs, scene, inventory_grid(inputs, scene, 21), forward).values[0])
+    room = (levels[-1] - 50_000) - levels[0]
+    assert lp * (1 - 1e-12) <= bound <= lp + room * np.abs(np.diff(forward)).sum()
+    assert relaxed.spacing * forward.min() > room * np.abs(np.diff(forward)).sum()  # the free step would fail it

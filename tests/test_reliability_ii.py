@@ -191,9 +191,13 @@ def test_sigint_and_sigterm_save_the_checkpoint_and_exit_quietly(tmp_path, signa
     command = [sys.executable, "-m", "snapo_ode.cli", "gas", "--train-steps", "1000000", "--no-progress",
                "--out", str(out)]
     # A test run started as a background job inherits an ignored SIGINT, and a program keeps an
-    # ignored SIGINT ignored (as `nohup` wants): give the run Ctrl-C's default disposition.
-    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    # ignored SIGINT ignored (as `nohup` wants): start the run with Ctrl-C's default disposition
+    # (a handled signal is reset to the default in the child).
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     try:
         checkpoint = out / "gas.checkpoint.eqx"
         deadline = time.monotonic() + 600  # a cold cache on a loaded machine: the first compile takes minutes

@@ -20,8 +20,10 @@ g_t, withdrawn gas wd_t): cash is linear in g and wd (allowing both on one day o
 the penalty linear in V_{t+1}, and V_{t+1} - V_t - g_t + wd_t = 0 is a network matrix, hence totally
 unimodular. Relax each day's rate limits to whole numbers of steps no smaller than the largest
 exact limit over the cell (`max_in_steps`, `max_out_steps`: ratchets and fuel loss at their
-most generous in the cell, rounded up), the terminal requirement down to a whole step and the
-initial inventory to its cell: every bound is then a whole number of steps, so the optimum of
+most generous in the cell, rounded up), the capacity up and the empty level down to a level
+(the grid is anchored on the terminal requirement and, where a spacing allows, the initial
+inventory too, so both are levels; otherwise the initial inventory is relaxed to its cell):
+every bound is then a whole number of steps, so the optimum of
 each cell's program is a grid path, and the dynamic program over grid paths with each level
 allowed the rates of both cells beside it,
 
@@ -56,7 +58,8 @@ DUAL_NODES = (101, 2_001)  # the range of level counts `relaxed_grid` searches
 
 
 class RelaxedGrid(NamedTuple):
-    """The bound's grid: `spacing` D [MMBtu] and `nodes` (levels 0, D, ..., capacity); per level,
+    """The bound's grid: `spacing` D [MMBtu], `nodes` and `first_level` L_0 in (-D, 0] [MMBtu]
+    (levels L_0, L_0 + D, ..., the first at or above capacity); per level,
     `max_in_steps` and `max_out_steps`, the relaxed daily rates in whole steps (tuples of N, so
     that the grid is static under `jit`);
     `terminal_node`, the lowest level allowed at the end; `start_nodes`, the levels beside the
@@ -70,10 +73,11 @@ class RelaxedGrid(NamedTuple):
     terminal_node: int
     start_nodes: tuple[int, int]
     relaxation: float
+    first_level: float = 0.0
 
     @property
     def levels(self) -> np.ndarray:
-        return self.spacing * np.arange(self.nodes)
+        return self.first_level + self.spacing * np.arange(self.nodes)
 
 
 def _cell_maxima(table: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -88,10 +92,14 @@ def _cell_maxima(table: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return maxima
 
 
-def _relaxed(inputs: StorageInputs, scene: Scene, nodes: int) -> RelaxedGrid:
+def _relaxed(inputs: StorageInputs, scene: Scene, spacing: float, anchor: float) -> RelaxedGrid:
+    """The grid of step `spacing` with a level at `anchor` [MMBtu], from the level at or below 0 to
+    the first at or above capacity."""
     capacity = float(inputs.capacity)
-    spacing = capacity / (nodes - 1)
-    edges = np.linspace(0.0, 1.0, nodes)
+    first = anchor - math.floor(anchor / spacing + 1e-9) * spacing
+    first = first - spacing if first > 1e-9 * spacing else 0.0
+    nodes = math.ceil((capacity - first) / spacing - 1e-9) + 1
+    edges = (first + spacing * np.arange(nodes)) / capacity
     kept = float(kept_fraction(inputs, scene))
     ratchets = scene.has("ratchets")
     steps = []
@@ -107,15 +115,29 @@ def _relaxed(inputs: StorageInputs, scene: Scene, nodes: int) -> RelaxedGrid:
         if largest > 0:
             relaxation = max(relaxation, float(np.max(whole * spacing - exact)) / largest)
         steps.append(tuple(int(s) for s in np.minimum(whole, nodes - 1)))
-    terminal = math.floor(float(inputs.terminal_inventory_min) / spacing + 1e-9)
-    start = float(inputs.initial_inventory) / spacing
+    terminal = math.floor((float(inputs.terminal_inventory_min) - first) / spacing + 1e-9)
+    start = (float(inputs.initial_inventory) - first) / spacing
     start_nodes = (min(math.floor(start + 1e-9), nodes - 1), min(math.ceil(start - 1e-9), nodes - 1))
-    return RelaxedGrid(spacing, nodes, steps[0], steps[1], terminal, start_nodes, relaxation)
+    return RelaxedGrid(spacing, nodes, steps[0], steps[1], terminal, start_nodes, relaxation, first)
+
+
+def _anchored(inputs: StorageInputs, scene: Scene, count: int) -> RelaxedGrid:
+    """The grid of about `count` levels anchored on the terminal requirement and, where the
+    spacing can divide the distance to it within a factor 1.5 of capacity / (count - 1), on the
+    initial inventory too: a relaxed start or end would hand the bound up to a step of free gas
+    (on the family's fast facilities ~1.5% of the value)."""
+    spacing = float(inputs.capacity) / (count - 1)
+    terminal, start = float(inputs.terminal_inventory_min), float(inputs.initial_inventory)
+    distance = abs(start - terminal)
+    steps = round(distance / spacing)
+    if distance > 1e-9 * float(inputs.capacity) and steps >= 1 and distance / steps <= 1.5 * spacing:
+        spacing = distance / steps
+    return _relaxed(inputs, scene, spacing, terminal)
 
 
 def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, *, paths: int = 1,
                  work: float = DUAL_WORK) -> RelaxedGrid:
-    """The bound's grid with `nodes` levels; None chooses, among DUAL_NODES, the count with the
+    """The bound's grid with about `nodes` levels (`_anchored`); None chooses, among DUAL_NODES, the count with the
     smallest relaxation whose work (levels x moves x `paths` x days) stays within `work` (the
     fewest levels among equals; 101 at least): 101 levels on B&dJ, whose rates are whole steps of
     2,500 MWh. Where rates are not whole steps the relaxation shrinks only as 1 / levels while the
@@ -128,11 +150,11 @@ def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, 
     if nodes is not None:
         if nodes < 2:
             raise InputError(f"dual nodes = {nodes}: the bound's grid needs at least 2 levels.")
-        return _relaxed(inputs, scene, int(nodes))
+        return _anchored(inputs, scene, int(nodes))
     best = None
     for count in range(DUAL_NODES[0], DUAL_NODES[1] + 1):
-        grid = _relaxed(inputs, scene, count)
-        cost = count * (max(grid.max_in_steps) + max(grid.max_out_steps) + 1) * paths * inputs.n_days
+        grid = _anchored(inputs, scene, count)
+        cost = grid.nodes * (max(grid.max_in_steps) + max(grid.max_out_steps) + 1) * paths * inputs.n_days
         if cost > work and best is not None:
             break
         if best is None or grid.relaxation < best.relaxation - 1e-12:
@@ -208,13 +230,14 @@ def schedule_penalty(penalty: AbstractPenalty, inputs: StorageInputs, grid: Inve
     lower-variance estimate of its value, and the bound's path value >= cash - penalty path by path."""
     spacing = grid.spacing if relaxed is None else relaxed.spacing
     nodes = grid.nodes if relaxed is None else relaxed.nodes
+    first = 0.0 if relaxed is None else relaxed.first_level
 
     def add(total, today):
         day_inputs, where = today
         per_level = penalty.today(day_inputs)
-        low = jnp.clip(jnp.floor(where / spacing), 0, nodes - 2)
-        weight = jnp.clip(where / spacing - low, 0.0, 1.0)
-        ends = _per_row(per_level, jnp.stack([low, low + 1], -1) * spacing, grid.spacing)
+        low = jnp.clip(jnp.floor((where - first) / spacing), 0, nodes - 2)
+        weight = jnp.clip((where - first) / spacing - low, 0.0, 1.0)
+        ends = _per_row(per_level, first + jnp.stack([low, low + 1], -1) * spacing, grid.spacing)
         return total + (1 - weight) * ends[:, 0] + weight * ends[:, 1], None
 
     total, _ = jax.lax.scan(add, jnp.zeros(prices.shape[0]), (penalty.daily(inputs, prices), inventory[:, 1:].T))
