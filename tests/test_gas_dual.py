@@ -296,3 +296,11 @@ def test_the_bound_hands_out_no_free_gas_at_an_off_grid_start_and_end():
     room = (levels[-1] - 50_000) - levels[0]
     assert lp * (1 - 1e-12) <= bound <= lp + room * np.abs(np.diff(forward)).sum()
     assert relaxed.spacing * forward.min() > room * np.abs(np.diff(forward)).sum()  # the free step would fail it
+    # The grid on [0, capacity] rounds the start and end and hands out the step: the pilot's choice
+    # (on paths of its own; here the one deterministic path) is the anchored grid.
+    on_capacity = dual.relaxed_grid(inputs, scene, anchored=False)
+    free = float(dual.dual_bound(None, inputs, scene, inventory_grid(inputs, scene, 21), forward,
+                                 relaxed=on_capacity).values[0])
+    assert free > lp + relaxed.spacing * forward.min() * 0.9
+    chosen = dual.tightest_grid(None, inputs, scene, inventory_grid(inputs, scene, 21), [on_capacity, relaxed], forward)
+    assert chosen == relaxed

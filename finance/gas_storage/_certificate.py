@@ -18,11 +18,12 @@ standard errors, a policy below the intrinsic value by more than 3, and a relaxa
 the rates by more than `LOOSE_RELAXATION`, each give a warning.
 """
 
+import jax
 import numpy as np
 
 from snapo_ode import Scene, time_function, time_once
 
-from ._dual import dual_bound, relaxed_grid, schedule_penalty
+from ._dual import dual_bound, relaxed_grid, schedule_penalty, tightest_grid
 from ._inputs import StorageInputs
 from ._lattice import LatticePenalty, run_lattice_policy, solve_factor_lattice
 from ._lp import IntrinsicSolution
@@ -34,6 +35,7 @@ from ._results import standard_error
 LOOSE_RELAXATION = 0.01  # rates raised by more than this share make the bound's warning "valid but loose"
 DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths when that buys a tighter grid
 PATHWISE_TOLERANCE = 1e-9  # relative: round-off of the path problem's sums
+PILOT_PATHS, PILOT_KEY = 200, 31  # paths of their own on which the bound's grid placement is chosen
 
 
 def intrinsic_schedule(inputs: StorageInputs, scene: Scene, intrinsic: IntrinsicSolution, prices) -> Schedule:
@@ -64,19 +66,13 @@ def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_
         lattice_seconds, lattice = time_once(solve_factor_lattice, inputs, scene, grid, points=lattice_points)
         penalty, kind = LatticePenalty(lattice), f"factor lattice ({lattice_points} levels of the OU factor)"
         policies = {**policies, "lattice": run_lattice_policy(lattice, inputs, scene, grid, prices)}
-    paths = prices.shape[0]
-    relaxed = relaxed_grid(inputs, scene, dual_nodes, paths=paths)
-    if dual_nodes is None and paths > DUAL_PATHS:
-        # A tighter relaxation on fewer paths beats a looser one on all: the gap's standard
-        # error stays small (the penalty is a control variate), the relaxation's bias does not.
-        fewer = relaxed_grid(inputs, scene, paths=DUAL_PATHS)
-        if fewer.relaxation < relaxed.relaxation - 1e-12:
-            relaxed, paths = fewer, DUAL_PATHS
+    relaxed, paths = _bound_grid(inputs, scene, grid, penalty, dual_nodes, prices.shape[0])
     prices = prices[:paths]
     seconds, bound = time_once(dual_bound, penalty, inputs, scene, grid, prices, relaxed=relaxed)
     upper = np.asarray(bound.values)
     out = {"dual_upper_bound": float(upper.mean()), "dual_upper_bound_se": standard_error(upper),
            "dual_penalty": kind, "dual_bounds_continuous_policies": True, "dual_grid_nodes": relaxed.nodes,
+           "dual_grid_spacing": relaxed.spacing, "dual_grid_first_level": relaxed.first_level,
            "dual_relaxation": relaxed.relaxation, "dual_paths": paths, "dual_seconds": seconds + lattice_seconds}
     lowers = {}
     for name, schedule in policies.items():
@@ -93,6 +89,26 @@ def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_
         out["lattice_out_of_sample"] = float(np.mean(policies["lattice"].value))
         out["lattice_se"] = standard_error(policies["lattice"].value)
     return {**out, "warnings": certify(out, upper, lowers, relaxed.relaxation)}
+
+
+def _bound_grid(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, penalty, dual_nodes: int | None,
+                paths: int) -> tuple:
+    """The bound's grid and the number of evaluation paths it runs on: for each way of placing
+    the grid (`_dual._anchored`), the tightest relaxation the work budget allows on all paths or
+    on DUAL_PATHS (a tighter relaxation on fewer paths beats a looser one on all: the gap's
+    standard error stays small, the penalty being a control variate, the relaxation's bias does
+    not); then the placement whose bound is lower on PILOT_PATHS paths of their own."""
+    options = {}
+    for anchored in (True, False):
+        relaxed, used = relaxed_grid(inputs, scene, dual_nodes, paths=paths, anchored=anchored), paths
+        if dual_nodes is None and paths > DUAL_PATHS:
+            fewer = relaxed_grid(inputs, scene, paths=DUAL_PATHS, anchored=anchored)
+            if fewer.relaxation < relaxed.relaxation - 1e-12:
+                relaxed, used = fewer, DUAL_PATHS
+        options[relaxed] = used
+    pilot = jax.random.normal(jax.random.key(PILOT_KEY), (min(PILOT_PATHS, paths), inputs.n_days))
+    chosen = tightest_grid(penalty, inputs, scene, grid, list(options), spot_prices(inputs, pilot)[0])
+    return chosen, options[chosen]
 
 
 def certify(out: dict, upper: np.ndarray, lowers: dict[str, tuple], relaxation: float) -> list[str]:

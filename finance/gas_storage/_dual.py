@@ -121,12 +121,15 @@ def _relaxed(inputs: StorageInputs, scene: Scene, spacing: float, anchor: float)
     return RelaxedGrid(spacing, nodes, steps[0], steps[1], terminal, start_nodes, relaxation, first)
 
 
-def _anchored(inputs: StorageInputs, scene: Scene, count: int) -> RelaxedGrid:
-    """The grid of about `count` levels anchored on the terminal requirement and, where the
+def _anchored(inputs: StorageInputs, scene: Scene, count: int, anchored: bool) -> RelaxedGrid:
+    """The grid of about `count` levels. `anchored`: on the terminal requirement and, where the
     spacing can divide the distance to it within a factor 1.5 of capacity / (count - 1), on the
-    initial inventory too: a relaxed start or end would hand the bound up to a step of free gas
-    (on the family's fast facilities ~1.5% of the value)."""
+    initial inventory too, with up to a step of room beyond each end of [0, capacity]; otherwise
+    levels 0 to capacity, with the start relaxed to its cell and the end down to a level (up to a
+    step of free gas). Which is tighter depends on the case (`tightest_grid`)."""
     spacing = float(inputs.capacity) / (count - 1)
+    if not anchored:
+        return _relaxed(inputs, scene, spacing, 0.0)
     terminal, start = float(inputs.terminal_inventory_min), float(inputs.initial_inventory)
     distance = abs(start - terminal)
     steps = round(distance / spacing)
@@ -136,8 +139,8 @@ def _anchored(inputs: StorageInputs, scene: Scene, count: int) -> RelaxedGrid:
 
 
 def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, *, paths: int = 1,
-                 work: float = DUAL_WORK) -> RelaxedGrid:
-    """The bound's grid with about `nodes` levels (`_anchored`); None chooses, among DUAL_NODES, the count with the
+                 work: float = DUAL_WORK, anchored: bool = True) -> RelaxedGrid:
+    """The bound's grid with about `nodes` levels (`_anchored`, `anchored` or not); None chooses, among DUAL_NODES, the count with the
     smallest relaxation whose work (levels x moves x `paths` x days) stays within `work` (the
     fewest levels among equals; 101 at least): 101 levels on B&dJ, whose rates are whole steps of
     2,500 MWh. Where rates are not whole steps the relaxation shrinks only as 1 / levels while the
@@ -150,10 +153,10 @@ def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, 
     if nodes is not None:
         if nodes < 2:
             raise InputError(f"dual nodes = {nodes}: the bound's grid needs at least 2 levels.")
-        return _anchored(inputs, scene, int(nodes))
+        return _anchored(inputs, scene, int(nodes), anchored)
     best = None
     for count in range(DUAL_NODES[0], DUAL_NODES[1] + 1):
-        grid = _anchored(inputs, scene, count)
+        grid = _anchored(inputs, scene, count, anchored)
         cost = grid.nodes * (max(grid.max_in_steps) + max(grid.max_out_steps) + 1) * paths * inputs.n_days
         if cost > work and best is not None:
             break
@@ -242,3 +245,19 @@ def schedule_penalty(penalty: AbstractPenalty, inputs: StorageInputs, grid: Inve
 
     total, _ = jax.lax.scan(add, jnp.zeros(prices.shape[0]), (penalty.daily(inputs, prices), inventory[:, 1:].T))
     return total
+
+
+def tightest_grid(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
+                  candidates: list[RelaxedGrid], pilot_prices: jax.Array) -> RelaxedGrid:
+    """The candidate grid whose bound is lowest on `pilot_prices` (paths, T): paths of their own,
+    not the bound's, so that the choice leaves the bound valid and unbiased (the lower of two
+    bounds on the same paths would be biased low, and a per-path minimum is no bound: each grid
+    charges its own interpolation of the penalty). The anchored grid wins where a step of free
+    gas is worth more than the room it adds (low volatility, off-grid ends); the other where the
+    room is traded daily (fast facilities at high volatility)."""
+    distinct = list(dict.fromkeys(candidates))
+    if len(distinct) == 1:
+        return distinct[0]
+    means = [float(jnp.mean(dual_bound(penalty, inputs, scene, grid, pilot_prices, relaxed=candidate).values))
+             for candidate in distinct]
+    return distinct[int(np.argmin(means))]
