@@ -51,7 +51,7 @@ def run_bench(args) -> int:
 def stiff_accuracy(args):
     from ._solver_accuracy import stiff_study
 
-    return stiff_study(args)
+    return stiff_study(quick=args.quick)
 
 
 def register_kinetics(cli: CommandLine) -> None:

@@ -119,14 +119,13 @@ def ignition_panel(name: str, rtols, repeats: int) -> Panel:
                         f"'{BDF_TIGHT_ATOL}' is our BDF at Cantera's atol factor. " + HOST_NOTE))
 
 
-def stiff_study(args):
+def stiff_study(*, quick: bool):
     """The "stiff" study (`snapo bench accuracy --only stiff`); the pharma chain's panel comes
     from `chemistry.pharma`."""
     from snapo_ode import AccuracyStudy
 
     from .pharma._accuracy import chain_solver_panel
 
-    quick = args.quick
     # --quick (CI's check of the page) keeps the ends of the tolerance range and one timed call.
     rtols = (1e-4, 1e-8) if quick else (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
     repeats = 1 if quick else 5

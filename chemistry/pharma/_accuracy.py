@@ -99,10 +99,10 @@ def gradient_points(rtols, repeats: int) -> tuple[list[Point], float]:
     return points, reference_check
 
 
-def gradient_study(args) -> list[AccuracyStudy]:
+def gradient_study(*, quick: bool) -> list[AccuracyStudy]:
     """The "gradients" study (`snapo bench accuracy --only gradients`)."""
-    rtols = (1e-6, 1e-9) if args.quick else (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
-    points, reference_check = gradient_points(rtols, repeats=3 if args.quick else 10)
+    rtols = (1e-6, 1e-9) if quick else (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+    points, reference_check = gradient_points(rtols, repeats=3 if quick else 10)
     panel = Panel(
         "gradients_pharma_chain", "Pharma chain: 20 dCQA/dCPP, error against wall time",
         "wall time after compile [s]", "max relative error of the 20 dCQA/dCPP", points, target=TARGET,
@@ -113,6 +113,6 @@ def gradient_study(args) -> list[AccuracyStudy]:
     text = ("How the derivative is taken through the chain's solves (R1, R2: Rodas5; crystallizer and dryer: "
             "Tsit5) changes its cost and its accuracy at a given tolerance. Reverse mode takes 5 passes (one per "
             "CQA) and forward mode 4 tangents (one per CPP); central bumps 8 solves.")
-    ignition = ignition_gradient_panel((1e-6, 1e-9) if args.quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10),
-                                       repeats=3 if args.quick else 5)
+    ignition = ignition_gradient_panel((1e-6, 1e-9) if quick else (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10),
+                                       repeats=3 if quick else 5)
     return [AccuracyStudy("gradients", "Gradients: error against time and memory", [panel, ignition], text)]

@@ -156,13 +156,13 @@ def run_bench(args) -> int:
 def gradient_accuracy(args):
     from ._accuracy import gradient_study
 
-    return gradient_study(args)
+    return gradient_study(quick=args.quick)
 
 
 def device_scaling(args):
     from ._device_scaling import device_scaling
 
-    return device_scaling(args)
+    return device_scaling(mesh=args.mesh, quick=args.quick, seed=args.seed, repeats=args.repeats)
 
 
 def register_pharma(cli) -> None:

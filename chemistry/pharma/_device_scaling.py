@@ -1,6 +1,6 @@
 """The pharma workload of `snapo bench scaling`: the design space's full-model Monte Carlo, the
 chain's five CQAs on draws of every reaction's ln k (sigma 0.1), the draws split over the devices
-of `args.mesh`. Strong scaling: 256 draws in all; weak: 64 per device. The devices exchange
+of `mesh`. Strong scaling: 256 draws in all; weak: 64 per device. The devices exchange
 nothing: each keeps its draws' CQAs, and the host gathers 40 bytes per draw."""
 
 import jax
@@ -17,12 +17,11 @@ QUICK_STRONG_DRAWS, QUICK_WEAK_DRAWS_PER_DEVICE = 8, 4
 SIGMA = 0.1
 
 
-def device_scaling(args) -> list[dict]:
+def device_scaling(*, mesh, quick: bool, seed: int, repeats: int) -> list[dict]:
     """Rows of `snapo bench scaling` (see `snapo_ode._scaling`) for strong and weak scaling on
-    `args.mesh` (`args.quick`: a test's size)."""
-    mesh = args.mesh
+    `mesh` (None: one device; `quick`: a test's size), `repeats` timed calls a point."""
     devices = 1 if mesh is None else mesh.size
-    strong, weak = (QUICK_STRONG_DRAWS, QUICK_WEAK_DRAWS_PER_DEVICE) if args.quick else (STRONG_DRAWS,
+    strong, weak = (QUICK_STRONG_DRAWS, QUICK_WEAK_DRAWS_PER_DEVICE) if quick else (STRONG_DRAWS,
                                                                                          WEAK_DRAWS_PER_DEVICE)
     chain = PharmaChain()
     inputs = chain.inputs(make_cpps())
@@ -31,8 +30,8 @@ def device_scaling(args) -> list[dict]:
     rows = []
     for kind, draws in (("strong", strong), ("weak", weak * devices)):
         shifts = np.zeros((draws, len(names)))
-        shifts[:, columns] = SIGMA * np.asarray(jax.random.normal(jax.random.key(args.seed), (draws, len(columns))))
-        timing, _ = time_function(lambda shifts: shifted_cqas(chain, inputs, shifts, mesh), shifts, repeats=args.repeats)
+        shifts[:, columns] = SIGMA * np.asarray(jax.random.normal(jax.random.key(seed), (draws, len(columns))))
+        timing, _ = time_function(lambda shifts: shifted_cqas(chain, inputs, shifts, mesh), shifts, repeats=repeats)
         rows.append(dict(
             workload="pharma Monte Carlo (full chain per draw)", scaling=kind, devices=devices, samples=draws,
             seconds=timing.median_seconds, compile_seconds=timing.compile_seconds,

@@ -91,11 +91,11 @@ def monte_carlo_panels(quick: bool, seed: int) -> list[Panel]:
     ]
 
 
-def smoothing_study(args) -> list[AccuracyStudy]:
+def smoothing_study(*, quick: bool, seed: int) -> list[AccuracyStudy]:
     return [AccuracyStudy("smoothing", "Smoothing, ALM: the floor penalty's sharpness",
-                          [smoothing_panel(args.quick, args.seed)])]
+                          [smoothing_panel(quick, seed)])]
 
 
-def monte_carlo_study(args) -> list[AccuracyStudy]:
+def monte_carlo_study(*, quick: bool, seed: int) -> list[AccuracyStudy]:
     return [AccuracyStudy("monte-carlo", "Monte Carlo, ALM: paths against standard error and time",
-                          monte_carlo_panels(args.quick, args.seed))]
+                          monte_carlo_panels(quick, seed))]

@@ -51,19 +51,19 @@ def _report(args) -> int:
 def _smoothing_accuracy(args):
     from ._accuracy import smoothing_study
 
-    return smoothing_study(args)
+    return smoothing_study(quick=args.quick, seed=args.seed)
 
 
 def _monte_carlo_accuracy(args):
     from ._accuracy import monte_carlo_study
 
-    return monte_carlo_study(args)
+    return monte_carlo_study(quick=args.quick, seed=args.seed)
 
 
 def _device_scaling(args):
     from ._device_scaling import device_scaling
 
-    return device_scaling(args)
+    return device_scaling(mesh=args.mesh, quick=args.quick, seed=args.seed, repeats=args.repeats)
 
 
 def register_alm(cli: CommandLine) -> None:

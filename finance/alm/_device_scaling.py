@@ -1,6 +1,6 @@
 """The ALM workload of `snapo bench scaling`: one reverse pass for the objective and its
 sensitivities to N = 100 risk factors over 120 months, its paths split over the devices of
-`args.mesh`. Strong scaling: 10,000 paths in all; weak: 5,000 per device. What the devices
+`mesh`. Strong scaling: 10,000 paths in all; weak: 5,000 per device. What the devices
 exchange per pass is one all-reduce of the value and the N sensitivities."""
 
 import equinox as eqx
@@ -18,22 +18,21 @@ STRONG_PATHS, WEAK_PATHS_PER_DEVICE = 10_000, 5_000
 QUICK_STRONG_PATHS, QUICK_WEAK_PATHS_PER_DEVICE, QUICK_HORIZON_MONTHS = 64, 32, 6
 
 
-def device_scaling(args) -> list[dict]:
+def device_scaling(*, mesh, quick: bool, seed: int, repeats: int) -> list[dict]:
     """Rows of `snapo bench scaling` (see `snapo_ode._scaling`) for strong and weak scaling on
-    `args.mesh` (`args.quick`: a test's size)."""
-    mesh = args.mesh
+    `mesh` (None: one device; `quick`: a test's size), `repeats` timed calls a point."""
     devices = 1 if mesh is None else mesh.size
-    horizon = QUICK_HORIZON_MONTHS if args.quick else HORIZON_MONTHS
-    strong, weak = (QUICK_STRONG_PATHS, QUICK_WEAK_PATHS_PER_DEVICE) if args.quick else (STRONG_PATHS, WEAK_PATHS_PER_DEVICE)
+    horizon = QUICK_HORIZON_MONTHS if quick else HORIZON_MONTHS
+    strong, weak = (QUICK_STRONG_PATHS, QUICK_WEAK_PATHS_PER_DEVICE) if quick else (STRONG_PATHS, WEAK_PATHS_PER_DEVICE)
     study = build_study(RISK_FACTORS, horizon_months=horizon)
-    key = jax.random.key(args.seed)
+    key = jax.random.key(seed)
     policy = NeuralRebalancing(study.market, key=jax.random.fold_in(key, 1))
     objective = objective_of_reported(study.problem, study.fixed, mesh=mesh)
     adjoint = eqx.filter_jit(lambda reported, policy, shocks: value_and_sensitivities(objective, reported, policy, shocks))
     rows = []
     for kind, paths in (("strong", strong), ("weak", weak * devices)):
         shocks = scenarios(study, paths, jax.random.fold_in(key, 2), mesh)
-        timing, (value, _) = time_function(adjoint, study.reported, policy, shocks, repeats=args.repeats)
+        timing, (value, _) = time_function(adjoint, study.reported, policy, shocks, repeats=repeats)
         rows.append(dict(
             workload=f"ALM sensitivities (N = {RISK_FACTORS}, {horizon} months)", scaling=kind, devices=devices,
             samples=paths, seconds=timing.median_seconds, compile_seconds=timing.compile_seconds,

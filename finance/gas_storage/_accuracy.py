@@ -123,12 +123,12 @@ def monte_carlo_panels(quick: bool, seed: int) -> list[Panel]:
     ]
 
 
-def smoothing_study(args) -> list[AccuracyStudy]:
+def smoothing_study(*, quick: bool, seed: int) -> list[AccuracyStudy]:
     return [AccuracyStudy("smoothing", "Smoothing: sharpness against gap, gradient accuracy and training outcome",
-                          smoothing_panels(args.quick, args.seed))]
+                          smoothing_panels(quick, seed))]
 
 
-def monte_carlo_study(args) -> list[AccuracyStudy]:
+def monte_carlo_study(*, quick: bool, seed: int) -> list[AccuracyStudy]:
     return [AccuracyStudy("monte-carlo", "Monte Carlo: paths against standard error and time",
-                          monte_carlo_panels(args.quick, args.seed))]
+                          monte_carlo_panels(quick, seed))]
 

@@ -149,13 +149,13 @@ def run_bench_family(args) -> int:
 def smoothing_accuracy(args):
     from ._accuracy import smoothing_study
 
-    return smoothing_study(args)
+    return smoothing_study(quick=args.quick, seed=args.seed)
 
 
 def monte_carlo_accuracy(args):
     from ._accuracy import monte_carlo_study
 
-    return monte_carlo_study(args)
+    return monte_carlo_study(quick=args.quick, seed=args.seed)
 
 
 def register_gas(cli) -> None:
