@@ -39,13 +39,13 @@ def row(case, level: str) -> str:
     rule = run_lattice_policy(lattice, inputs, scene, grid, prices)
     penalty = LatticePenalty(lattice)
     cells = []
-    for relaxed in (relaxed_grid(inputs, scene, paths=PATHS, anchored=False),
-                    _bound_grid(inputs, scene, grid, penalty, None, PATHS)[0]):
+    on_capacity = relaxed_grid(inputs, scene, paths=PATHS, placement="capacity")
+    for relaxed in (on_capacity, _bound_grid(inputs, scene, grid, penalty, None, PATHS)[0]):
         bound = np.asarray(dual_bound(penalty, inputs, scene, grid, prices, relaxed=relaxed).values).mean()
         lower = np.asarray(rule.value) - np.asarray(schedule_penalty(penalty, inputs, grid, prices, rule.inventory,
                                                                      relaxed))
         cells += [f"{bound:,.0f}", f"{(bound - lower.mean()) / bound:.2%}"]
-    placement = "anchored" if relaxed.first_level != 0.0 else "0 to capacity"
+    placement = "0 to capacity" if relaxed == on_capacity else "anchored"
     return (f"| {case.name} | {level} | {float(lattice.value):,.0f} | {np.mean(rule.value):,.0f} | "
             f"{' | '.join(cells)} | {placement} | {time.perf_counter() - start:.0f} |")
 

@@ -298,7 +298,7 @@ def test_the_bound_hands_out_no_free_gas_at_an_off_grid_start_and_end():
     assert relaxed.spacing * forward.min() > room * np.abs(np.diff(forward)).sum()  # the free step would fail it
     # The grid on [0, capacity] rounds the start and end and hands out the step: the pilot's choice
     # (on paths of its own; here the one deterministic path) is the anchored grid.
-    on_capacity = dual.relaxed_grid(inputs, scene, anchored=False)
+    on_capacity = dual.relaxed_grid(inputs, scene, placement="capacity")
     free = float(dual.dual_bound(None, inputs, scene, inventory_grid(inputs, scene, 21), forward,
                                  relaxed=on_capacity).values[0])
     assert free > lp + relaxed.spacing * forward.min() * 0.9

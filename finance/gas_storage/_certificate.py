@@ -23,7 +23,7 @@ import numpy as np
 
 from snapo_ode import Scene, time_function, time_once
 
-from ._dual import dual_bound, relaxed_grid, schedule_penalty, tightest_grid
+from ._dual import PLACEMENTS, dual_bound, relaxed_grid, schedule_penalty, tightest_grid
 from ._inputs import StorageInputs
 from ._lattice import LatticePenalty, run_lattice_policy, solve_factor_lattice
 from ._lp import IntrinsicSolution
@@ -94,15 +94,15 @@ def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_
 def _bound_grid(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, penalty, dual_nodes: int | None,
                 paths: int) -> tuple:
     """The bound's grid and the number of evaluation paths it runs on: for each way of placing
-    the grid (`_dual._anchored`), the tightest relaxation the work budget allows on all paths or
+    the grid (`_dual.PLACEMENTS`), the tightest relaxation the work budget allows on all paths or
     on DUAL_PATHS (a tighter relaxation on fewer paths beats a looser one on all: the gap's
     standard error stays small, the penalty being a control variate, the relaxation's bias does
     not); then the placement whose bound is lower on PILOT_PATHS paths of their own."""
     options = {}
-    for anchored in (True, False):
-        relaxed, used = relaxed_grid(inputs, scene, dual_nodes, paths=paths, anchored=anchored), paths
+    for placement in PLACEMENTS:
+        relaxed, used = relaxed_grid(inputs, scene, dual_nodes, paths=paths, placement=placement), paths
         if dual_nodes is None and paths > DUAL_PATHS:
-            fewer = relaxed_grid(inputs, scene, paths=DUAL_PATHS, anchored=anchored)
+            fewer = relaxed_grid(inputs, scene, paths=DUAL_PATHS, placement=placement)
             if fewer.relaxation < relaxed.relaxation - 1e-12:
                 relaxed, used = fewer, DUAL_PATHS
         options[relaxed] = used

@@ -39,7 +39,7 @@ the bound is reported with it.
 """
 
 import math
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import equinox as eqx
 import jax
@@ -55,6 +55,8 @@ from ._penalty import AbstractPenalty
 
 DUAL_WORK = 6e9  # levels x moves x paths x days of the bound's dynamic program, at most (when choosing its grid)
 DUAL_NODES = (101, 2_001)  # the range of level counts `relaxed_grid` searches
+Placement = Literal["ends", "terminal", "capacity"]  # where the bound's grid is anchored (`_anchored`)
+PLACEMENTS: tuple[Placement, ...] = ("ends", "terminal", "capacity")
 
 
 class RelaxedGrid(NamedTuple):
@@ -121,26 +123,29 @@ def _relaxed(inputs: StorageInputs, scene: Scene, spacing: float, anchor: float)
     return RelaxedGrid(spacing, nodes, steps[0], steps[1], terminal, start_nodes, relaxation, first)
 
 
-def _anchored(inputs: StorageInputs, scene: Scene, count: int, anchored: bool) -> RelaxedGrid:
-    """The grid of about `count` levels. `anchored`: on the terminal requirement and, where the
-    spacing can divide the distance to it within a factor 1.5 of capacity / (count - 1), on the
-    initial inventory too, with up to a step of room beyond each end of [0, capacity]; otherwise
-    levels 0 to capacity, with the start relaxed to its cell and the end down to a level (up to a
-    step of free gas). Which is tighter depends on the case (`tightest_grid`)."""
+def _anchored(inputs: StorageInputs, scene: Scene, count: int, placement: Placement) -> RelaxedGrid:
+    """The grid of about `count` levels, placed (`placement`):
+    - "ends": on the terminal requirement and, where a spacing between 1/2 and 3/2 of capacity /
+      (count - 1) divides the distance to it, on the initial inventory too, with up to a step of
+      room beyond each end of [0, capacity];
+    - "terminal": on the terminal requirement, spacing capacity / (count - 1) (the start relaxed
+      to its cell), where dividing the distance would coarsen the grid;
+    - "capacity": levels 0 to capacity, the start relaxed to its cell and the end down to a level
+      (up to a step of free gas), no room beyond.
+    Which is tightest depends on the case (`tightest_grid`)."""
     spacing = float(inputs.capacity) / (count - 1)
-    if not anchored:
+    if placement == "capacity":
         return _relaxed(inputs, scene, spacing, 0.0)
     terminal, start = float(inputs.terminal_inventory_min), float(inputs.initial_inventory)
-    distance = abs(start - terminal)
-    steps = round(distance / spacing)
-    if distance > 1e-9 * float(inputs.capacity) and steps >= 1 and distance / steps <= 1.5 * spacing:
-        spacing = distance / steps
+    steps = round(abs(start - terminal) / spacing)
+    if placement == "ends" and steps >= 1:
+        spacing = abs(start - terminal) / steps
     return _relaxed(inputs, scene, spacing, terminal)
 
 
 def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, *, paths: int = 1,
-                 work: float = DUAL_WORK, anchored: bool = True) -> RelaxedGrid:
-    """The bound's grid with about `nodes` levels (`_anchored`, `anchored` or not); None chooses, among DUAL_NODES, the count with the
+                 work: float = DUAL_WORK, placement: Placement = "ends") -> RelaxedGrid:
+    """The bound's grid with about `nodes` levels (`_anchored`, placed by `placement`); None chooses, among DUAL_NODES, the count with the
     smallest relaxation whose work (levels x moves x `paths` x days) stays within `work` (the
     fewest levels among equals; 101 at least): 101 levels on B&dJ, whose rates are whole steps of
     2,500 MWh. Where rates are not whole steps the relaxation shrinks only as 1 / levels while the
@@ -153,10 +158,10 @@ def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, 
     if nodes is not None:
         if nodes < 2:
             raise InputError(f"dual nodes = {nodes}: the bound's grid needs at least 2 levels.")
-        return _anchored(inputs, scene, int(nodes), anchored)
+        return _anchored(inputs, scene, int(nodes), placement)
     best = None
     for count in range(DUAL_NODES[0], DUAL_NODES[1] + 1):
-        grid = _anchored(inputs, scene, count, anchored)
+        grid = _anchored(inputs, scene, count, placement)
         cost = grid.nodes * (max(grid.max_in_steps) + max(grid.max_out_steps) + 1) * paths * inputs.n_days
         if cost > work and best is not None:
             break
@@ -252,9 +257,10 @@ def tightest_grid(penalty: AbstractPenalty | None, inputs: StorageInputs, scene:
     """The candidate grid whose bound is lowest on `pilot_prices` (paths, T): paths of their own,
     not the bound's, so that the choice leaves the bound valid and unbiased (the lower of two
     bounds on the same paths would be biased low, and a per-path minimum is no bound: each grid
-    charges its own interpolation of the penalty). The anchored grid wins where a step of free
-    gas is worth more than the room it adds (low volatility, off-grid ends); the other where the
-    room is traded daily (fast facilities at high volatility)."""
+    charges its own interpolation of the penalty). A grid on the ends wins where a step of free
+    gas is worth more than the room it adds (low volatility, off-grid ends); one on [0, capacity]
+    where the room is traded daily (fast facilities at high volatility); one on the terminal
+    requirement alone where dividing the distance to the start would coarsen the grid."""
     distinct = list(dict.fromkeys(candidates))
     if len(distinct) == 1:
         return distinct[0]
