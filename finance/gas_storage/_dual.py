@@ -20,11 +20,10 @@ g_t, withdrawn gas wd_t): cash is linear in g and wd (allowing both on one day o
 the penalty linear in V_{t+1}, and V_{t+1} - V_t - g_t + wd_t = 0 is a network matrix, hence totally
 unimodular. Relax each day's rate limits to whole numbers of steps no smaller than the largest
 exact limit over the cell (`max_in_steps`, `max_out_steps`: ratchets and fuel loss at their
-most generous in the cell, rounded up), the capacity up and the empty level down to a level
-(the grid is anchored on the terminal requirement and, where a spacing allows, the initial
-inventory too, so both are levels; otherwise the initial inventory is relaxed to its cell):
-every bound is then a whole number of steps, so the optimum of
-each cell's program is a grid path, and the dynamic program over grid paths with each level
+most generous in the cell, rounded up), capacity up and empty down to a level, the initial
+inventory to its cell and the terminal requirement down to a level where they are not levels
+(`PLACEMENTS` say where the grid is anchored, `_placed`): every bound is then a whole number
+of steps, so the optimum of each cell's program is a grid path, and the dynamic program over grid paths with each level
 allowed the rates of both cells beside it,
 
     U_T(n) = 0 (n >= terminal level, else -inf),
@@ -55,7 +54,7 @@ from ._penalty import AbstractPenalty
 
 DUAL_WORK = 6e9  # levels x moves x paths x days of the bound's dynamic program, at most (when choosing its grid)
 DUAL_NODES = (101, 2_001)  # the range of level counts `relaxed_grid` searches
-Placement = Literal["ends", "terminal", "capacity"]  # where the bound's grid is anchored (`_anchored`)
+Placement = Literal["ends", "terminal", "capacity"]  # where the bound's grid is anchored (`_placed`)
 PLACEMENTS: tuple[Placement, ...] = ("ends", "terminal", "capacity")
 
 
@@ -123,7 +122,7 @@ def _relaxed(inputs: StorageInputs, scene: Scene, spacing: float, anchor: float)
     return RelaxedGrid(spacing, nodes, steps[0], steps[1], terminal, start_nodes, relaxation, first)
 
 
-def _anchored(inputs: StorageInputs, scene: Scene, count: int, placement: Placement) -> RelaxedGrid:
+def _placed(inputs: StorageInputs, scene: Scene, count: int, placement: Placement) -> RelaxedGrid:
     """The grid of about `count` levels, placed (`placement`):
     - "ends": on the terminal requirement and, where a spacing between 1/2 and 3/2 of capacity /
       (count - 1) divides the distance to it, on the initial inventory too, with up to a step of
@@ -145,7 +144,7 @@ def _anchored(inputs: StorageInputs, scene: Scene, count: int, placement: Placem
 
 def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, *, paths: int = 1,
                  work: float = DUAL_WORK, placement: Placement = "ends") -> RelaxedGrid:
-    """The bound's grid with about `nodes` levels (`_anchored`, placed by `placement`); None chooses, among DUAL_NODES, the count with the
+    """The bound's grid with about `nodes` levels (`_placed`, placed by `placement`); None chooses, among DUAL_NODES, the count with the
     smallest relaxation whose work (levels x moves x `paths` x days) stays within `work` (the
     fewest levels among equals; 101 at least): 101 levels on B&dJ, whose rates are whole steps of
     2,500 MWh. Where rates are not whole steps the relaxation shrinks only as 1 / levels while the
@@ -158,10 +157,10 @@ def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, 
     if nodes is not None:
         if nodes < 2:
             raise InputError(f"dual nodes = {nodes}: the bound's grid needs at least 2 levels.")
-        return _anchored(inputs, scene, int(nodes), placement)
+        return _placed(inputs, scene, int(nodes), placement)
     best = None
     for count in range(DUAL_NODES[0], DUAL_NODES[1] + 1):
-        grid = _anchored(inputs, scene, count, placement)
+        grid = _placed(inputs, scene, count, placement)
         cost = grid.nodes * (max(grid.max_in_steps) + max(grid.max_out_steps) + 1) * paths * inputs.n_days
         if cost > work and best is not None:
             break

@@ -159,7 +159,7 @@ class LSMCComparison(Result):
     dual_bounds_continuous_policies: bool
     dual_grid_nodes: int
     dual_grid_spacing: float  # [MMBtu]
-    dual_grid_first_level: float  # [MMBtu], in (-spacing, 0]: below 0 where the grid is anchored on the start and end
+    dual_grid_first_level: float  # [MMBtu], in (-spacing, 0]: below 0 where the grid is anchored on the terminal requirement
     dual_relaxation: float
     dual_paths: int
     dual_seconds: float
