@@ -9,20 +9,8 @@ from snapo_ode import lazy_exports
 MECHANISMS = Path(__file__).parent / "mechanisms"
 """The directory of the mechanisms that ship with this package [`reaction_types.yaml`, `pharma.yaml`]."""
 
-__getattr__, __dir__, __all__ = lazy_exports(__name__, {
-    "._batch": ("IgnitionBatch", "IgnitionBatchResult", "final_temperature_batch", "mole_ratios",
-                "solve_ignition_batch", "temperature_sensitivities_batch"),
-    "._check": ("KineticsCheck", "check_against_cantera", "default_case"),
-    "._crosscheck": ("RateComparison", "compare_rates"),
-    "._ignition": ("IGNITION_CASES", "IgnitionCase", "IgnitionResult", "cantera_ignition", "ignition_delay",
-                   "initial_concentrations", "solve_ignition"),
-    "._mechanism": ("Mechanism",),
-    "._rate_laws": ("RateParameters",),
-    "._reactor": ("REACTOR_EFFECTS", "REACTOR_BDF_SOLVER", "REACTOR_SOLVER", "Reactor", "Trajectory", "simulate"),
-    "._sensitivities": ("SensitivityComparison", "cantera_sensitivities", "compare_sensitivities",
-                        "final_temperature", "temperature_at", "temperature_sensitivities"),
-    "._thermo": ("SpeciesThermo",),
-    "._units": ("GAS_CONSTANT", "ONE_ATM"),
-    "snapo_ode": ("SolverSettings",),
-}, submodules=("pharma",))
+from .kinetics import __all__ as _kinetics
+
+__getattr__, __dir__, __all__ = lazy_exports(__name__, {".kinetics": tuple(_kinetics), "snapo_ode": ("SolverSettings",)},
+                                             submodules=("kinetics", "pharma"))
 __all__.append("MECHANISMS")

@@ -2,7 +2,7 @@
 
 from snapo_ode.cli import CommandLine
 
-from ._cli import register_kinetics
+from .kinetics._cli import register_kinetics
 from .pharma._cli import register_pharma
 
 

@@ -3,12 +3,12 @@
 Importing the package changes no global JAX state: call `snapo_ode.configure()` once (the `snapo`
 CLI, the tests and the notebooks do) to turn on float64 and the persistent compilation cache.
 Entry points that need float64 (sensitivities, stiff solves) raise `ConfigurationError` without it.
-Public names load lazily, on first use (`snapo_ode._lazy`).
+Public names load lazily, on first use (`snapo_ode._platform.lazy`).
 """
 
 from importlib.metadata import PackageNotFoundError, version
 
-from ._lazy import lazy_exports
+from ._platform.lazy import lazy_exports
 
 try:
     __version__ = version("snapo-ode")
@@ -16,41 +16,41 @@ except PackageNotFoundError:  # run from a source tree that was never installed
     __version__ = "0+unknown"
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
-    "._accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "read_accuracy", "timed_point", "write_accuracy"),
-    "._config": ("ConfigurationError", "configure", "default_cache_dir", "require_float64"),
-    "._cache_trust": ("CacheUnavailable",),
-    "._distributed": ("SAMPLES", "check_divisible", "generate_sharded", "initialize", "is_writer", "mesh_of",
+    "._runtime.accuracy": ("AccuracyStudy", "Panel", "Point", "cheapest", "read_accuracy", "timed_point", "write_accuracy"),
+    "._platform.config": ("ConfigurationError", "configure", "default_cache_dir", "require_float64"),
+    "._platform.cache_trust": ("CacheUnavailable",),
+    "._platform.devices": ("SAMPLES", "check_divisible", "generate_sharded", "initialize", "is_writer", "mesh_of",
                       "per_sample", "sample_mean", "sample_mesh", "spec", "start", "to_host", "use_cpu_devices"),
     "._effects": ("EffectCatalogue", "Scene"),
-    "._io": ("MANIFEST", "atomic_write_bytes", "atomic_write_json", "atomic_write_text", "check_replaceable_directory",
+    "._platform.files": ("MANIFEST", "atomic_write_bytes", "atomic_write_json", "atomic_write_text", "check_replaceable_directory",
              "json_bytes", "publish", "publish_directory", "sha256"),
-    "._export_keys": ("Unkeyable", "describe"),
-    "._exported": ("ONCE_COMPILE", "QUICK_COMPILE", "ExportedProgram", "exported"),
+    "._runtime.export_keys": ("Unkeyable", "describe"),
+    "._runtime.exported": ("ONCE_COMPILE", "QUICK_COMPILE", "ExportedProgram", "exported"),
     "._jaxpr": ("count_operations",),
-    "._lazy": ("lazy_exports",),
+    "._platform.lazy": ("lazy_exports",),
     "._ode": ("SolverFailed", "call_checked", "diffeqsolve_checked", "prefetch_checked", "raise_if_failed"),
-    "._pdf": ("PdfUnavailable", "count_pages", "find_chromium", "print_pdf"),
+    "._runtime.pdf": ("PdfUnavailable", "count_pages", "find_chromium", "print_pdf"),
     "._periodic": ("Periodic", "cosine_square", "wrap", "wrapped_square"),
     "._policy": ("MLPPolicy", "load_policy", "policy_bytes", "save_policy"),
-    "._provenance": ("git_state", "input_digest", "provenance"),
-    "._report": ("WrittenReport", "csv_bytes", "write_report"),
-    "._report_model": ("Bullets", "Figure", "Heading", "Highlights", "Paragraph", "Report", "Section", "Table",
+    "._runtime.provenance": ("git_state", "input_digest", "provenance"),
+    "._runtime.report": ("WrittenReport", "csv_bytes", "write_report"),
+    "._runtime.report_model": ("Bullets", "Figure", "Heading", "Highlights", "Paragraph", "Report", "Section", "Table",
                        "Value", "format_value", "lookup"),
-    "._report_html": ("render_html",),
-    "._resources": ("available_memory", "check_memory", "memory_mappings", "relieve_mappings"),
-    "._results": ("Result", "field", "jsonable"),
+    "._runtime.report_html": ("render_html",),
+    "._platform.resources": ("available_memory", "check_memory", "memory_mappings", "relieve_mappings"),
+    "._runtime.results": ("Result", "field", "jsonable"),
     "._rollout": ("DiscreteStepper", "RolloutMethod", "rollout"),
-    "._rosenbrock": ("Rodas4", "Rodas5"),
+    "._solver.rosenbrock": ("Rodas4", "Rodas5"),
     "._sensitivity": ("Jacobian", "JacobianMode", "choose_mode", "flatten_inputs", "input_names", "jacobian",
                       "value_and_sensitivities"),
-    "._solver": ("SOLVERS", "STIFF_SOLVERS", "SolverName", "SolverSettings"),
-    "._tables": ("Column", "format_table", "records_csv", "write_table"),
+    "._solver.base": ("SOLVERS", "STIFF_SOLVERS", "SolverName", "SolverSettings"),
+    "._runtime.tables": ("Column", "format_table", "records_csv", "write_table"),
     "._timing": ("Timing", "compiled_temp_bytes", "time_function", "time_once"),
     "._training": ("TrainingDiverged", "TrainResult", "default_optimizer", "train"),
     "._checkpoint": ("CheckpointInfo", "load_checkpoint", "save_checkpoint"),
     "._fingerprint": ("digest_of", "package_versions", "run_fingerprint"),
-    "._schema": ("DECIMAL", "STRICT_SCHEMA", "read_text", "strict_json", "validate"),
-    "._validation": ("InputError", "check_choice", "check_count", "check_finite", "check_increasing",
+    "._platform.schema": ("DECIMAL", "STRICT_SCHEMA", "read_text", "strict_json", "validate"),
+    "._platform.validation": ("InputError", "check_choice", "check_count", "check_finite", "check_increasing",
                      "check_range", "check_scalar"),
     "._verification": ("DEFAULT_RELATIVE_STEP", "Agreement", "BumpComparison", "agreement", "bump_and_revalue",
                        "bump_steps", "bumps_program", "central_differences", "compare_with_bumps", "max_relative_difference"),

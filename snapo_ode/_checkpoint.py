@@ -11,9 +11,9 @@ import equinox as eqx
 import pydantic
 
 from ._fingerprint import differences
-from ._io import atomic_write_bytes
-from ._schema import STRICT_SCHEMA, validate
-from ._validation import InputError
+from ._platform.files import atomic_write_bytes
+from ._platform.schema import STRICT_SCHEMA, validate
+from ._platform.validation import InputError
 
 MAX_HEADER_BYTES = 64 * 2**20
 

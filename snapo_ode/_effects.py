@@ -8,7 +8,7 @@ from collections.abc import Iterable, Mapping
 
 import equinox as eqx
 
-from ._validation import InputError
+from ._platform.validation import InputError
 
 
 class Scene(eqx.Module):

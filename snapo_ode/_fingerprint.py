@@ -14,7 +14,7 @@ from collections.abc import Mapping
 import jax
 import numpy as np
 
-from ._versions import in_words
+from ._platform.versions import in_words
 
 _ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
 

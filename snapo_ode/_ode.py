@@ -21,10 +21,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._distributed import to_host
-from ._resources import relieve_mappings_after_compiles
+from ._platform.devices import to_host
+from ._platform.resources import relieve_mappings_after_compiles
 from ._jaxpr import equations
-from ._validation import InputError
+from ._platform.validation import InputError
 
 _FAILURE_MESSAGES = (
     "the ODE solve reached max_steps before t1: raise max_steps, loosen rtol/atol, or check the "

@@ -28,7 +28,7 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from . import smooth
-from ._validation import InputError
+from ._platform.validation import InputError
 
 __all__ = ["Periodic", "wrap", "wrapped_square", "cosine_square"]
 

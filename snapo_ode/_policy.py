@@ -8,8 +8,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._io import atomic_write_bytes
-from ._validation import InputError
+from ._platform.files import atomic_write_bytes
+from ._platform.validation import InputError
 
 
 class MLPPolicy(eqx.Module):

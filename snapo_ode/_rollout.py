@@ -13,7 +13,7 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
-from ._validation import InputError, check_choice
+from ._platform.validation import InputError, check_choice
 
 RolloutMethod = Literal["scan", "diffrax"]
 

@@ -15,8 +15,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from ._config import require_float64
-from ._validation import InputError, check_choice
+from ._platform.config import require_float64
+from ._platform.validation import InputError, check_choice
 
 JacobianMode = Literal["auto", "reverse", "forward"]
 
@@ -42,8 +42,8 @@ def _key_name(key) -> str:
 
 def input_names(inputs) -> list[str]:
     """A name for each entry of `flatten_inputs(inputs)[0]`: the path of its leaf, dotted
-    ("cpps.r1_temperature", "forward_curve"), with the index of an array entry in brackets
-    ("rates.log_multiplier[3]", "injection_ratchet[1][0]")."""
+    (`cpps.r1_temperature`, `forward_curve`), with the index of an array entry in brackets
+    (`rates.log_multiplier[3]`, `injection_ratchet[1][0]`)."""
     params = eqx.filter(inputs, eqx.is_inexact_array)
     names = []
     for path, leaf in jax.tree_util.tree_flatten_with_path(params)[0]:

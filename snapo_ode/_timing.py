@@ -12,7 +12,7 @@ from typing import Any, NamedTuple
 
 import jax
 
-from ._resources import relieve_mappings_after_compiles
+from ._platform.resources import relieve_mappings_after_compiles
 
 
 class Timing(NamedTuple):

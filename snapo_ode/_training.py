@@ -16,7 +16,7 @@ from tqdm.auto import tqdm
 
 from ._checkpoint import check_same_run, load_checkpoint, save_checkpoint
 from ._fingerprint import run_fingerprint
-from ._validation import InputError
+from ._platform.validation import InputError
 
 
 class TrainingDiverged(FloatingPointError):

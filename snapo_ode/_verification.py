@@ -22,7 +22,7 @@ import numpy as np
 
 from ._sensitivity import JacobianMode, flatten_inputs, jacobian, value_and_sensitivities
 from ._timing import Timing, time_function
-from ._validation import InputError
+from ._platform.validation import InputError
 
 # Cube root of float64 machine epsilon: the step that balances truncation and round-off in a
 # central difference.

@@ -27,7 +27,7 @@ written with the CSV (exit 0), so a long computation is not lost for want of a b
 Verbs that train also get `--checkpoint` and `--resume` (`add_training_options`); verbs whose
 samples split over devices get `--devices N` and the multi-process options (`add_device_options`).
 
-Exit codes (`snapo_ode._exits`): 0 success; 2 a user mistake (`InputError`: a one-line `snapo:
+Exit codes (`snapo_ode._runtime.exits`): 0 success; 2 a user mistake (`InputError`: a one-line `snapo:
 error: ...` naming the field, the value and what is allowed); 3 a failed solve or training; 4 the
 environment (disk full, unwritable or untrusted cache); 130 / 143 interrupted by SIGINT / SIGTERM
 (the training checkpoint saved).
@@ -40,10 +40,10 @@ import sys
 from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
 
-from ._exits import EXIT_INPUT_ERROR, configure_or_warn, ended
-from ._first_result import add_first_result_bench
-from ._options import OneLineParser, VersionAction, count, number, positive
-from ._validation import InputError
+from ._runtime.exits import EXIT_INPUT_ERROR, configure_or_warn, ended
+from ._runtime.first_result import add_first_result_bench
+from ._runtime.options import OneLineParser, VersionAction, count, number, positive
+from ._platform.validation import InputError
 
 __all__ = ["CommandLine", "OneLineParser", "add_common_options", "add_device_options", "add_training_options",
            "build", "count", "main", "number", "parse", "positive", "publish_report"]
@@ -53,7 +53,7 @@ def check_output_paths(args: argparse.Namespace) -> None:
     """Refuse, before any computation, outputs that could not be written: `--json` naming a
     directory or under an unwritable one, `--out` naming a file; for a report, an `--out` holding
     files that no earlier report wrote (the report replaces its directory whole)."""
-    from ._io import check_replaceable_directory, check_writable_under, output_target
+    from ._platform.files import check_replaceable_directory, check_writable_under, output_target
 
     if args.out.exists() and not args.out.is_dir():
         raise InputError(f"--out = {str(args.out)!r} is an existing file; give a directory.")
@@ -68,7 +68,7 @@ def check_output_paths(args: argparse.Namespace) -> None:
 def check_pdf_printer(args: argparse.Namespace) -> None:
     """Before computing a report: with `--require-pdf`, refuse when Chromium is missing; by
     default, warn at once that the PDF will be left out."""
-    from ._pdf import find_chromium, missing_message
+    from ._runtime.pdf import find_chromium, missing_message
 
     if args.pdf == "skip" or find_chromium() is not None:
         return
@@ -80,7 +80,7 @@ def check_pdf_printer(args: argparse.Namespace) -> None:
 def publish_report(args: argparse.Namespace, report) -> int:
     """Write `report` (a `snapo_ode.Report`) into `args.out` with the report options, print the
     files and any warning; returns the exit code (0)."""
-    from ._report import write_report
+    from ._runtime.report import write_report
 
     written = write_report(args.out, report, json_path=args.json, pdf=args.pdf)
     for path in written.paths:
@@ -198,7 +198,7 @@ class CommandLine:
         self._accuracy.setdefault(name, []).append(run)
 
     def _run_accuracy(self, args: argparse.Namespace) -> int:
-        from ._accuracy import write_accuracy
+        from ._runtime.accuracy import write_accuracy
 
         chosen = args.only or list(self._accuracy)
         unknown = [name for name in chosen if name not in self._accuracy]
@@ -207,7 +207,7 @@ class CommandLine:
         if args.in_process or len(chosen) == 1:
             studies, failed = [study for name in chosen for run in self._accuracy[name] for study in run(args)], {}
         else:
-            from ._apart import studies_apart
+            from ._runtime.apart import studies_apart
 
             studies, failed = studies_apart(chosen, args)
         command = " ".join(args.command_line)
@@ -220,12 +220,12 @@ class CommandLine:
 
     def scaling(self, name: str, run: Callable[[argparse.Namespace], Sequence[dict]]) -> None:
         """Add a workload to `snapo bench scaling`: `run(args)` measures it on `args.mesh` and
-        returns its rows (see `snapo_ode._scaling`)."""
+        returns its rows (see `snapo_ode._runtime.scaling`)."""
         self._scaling[name] = run
 
     def _run_scaling(self, args: argparse.Namespace) -> int:
-        from ._scaling import COLUMNS, scaling_png, with_efficiency
-        from ._tables import format_table, write_table
+        from ._runtime.scaling import COLUMNS, scaling_png, with_efficiency
+        from ._runtime.tables import format_table, write_table
 
         chosen = args.only or list(self._scaling)
         unknown = [name for name in chosen if name not in self._scaling]
@@ -234,7 +234,7 @@ class CommandLine:
         if args.devices is not None:  # one count, measured here
             rows, failed = [row for name in chosen for row in self._scaling[name](args)], {}
         else:
-            from ._apart import scaling_apart
+            from ._runtime.apart import scaling_apart
 
             rows, failed = scaling_apart(chosen, args)
         rows = with_efficiency(rows)
@@ -250,7 +250,7 @@ class CommandLine:
 
     def first_result(self, name: str, argv: Sequence[str]) -> None:
         """Add a workload to `snapo bench first-result`: `argv`, a `snapo` command line, timed
-        from a new process's start to its exit, cold and warm (see `snapo_ode._first_result`)."""
+        from a new process's start to its exit, cold and warm (see `snapo_ode._runtime.first_result`)."""
         self.first_results[name] = list(argv)
 
     def report(self, name: str, help: str) -> argparse.ArgumentParser:
@@ -305,12 +305,12 @@ def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandL
     def run() -> int:
         check_output_paths(args)
         if getattr(args, "distributed", False):
-            from ._distributed import start
+            from ._platform.devices import start
 
             start(args.devices, args.coordinator, args.num_processes, args.process_id)
         configure_or_warn()
         if getattr(args, "distributed", False):
-            from ._distributed import sample_mesh
+            from ._platform.devices import sample_mesh
 
             mesh = sample_mesh(args.devices)
             args.mesh = mesh if mesh.size > 1 else None

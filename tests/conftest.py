@@ -5,7 +5,7 @@ Every test process, the pytest-xdist workers and the `snapo` processes their tes
 through one persistent cache (`SNAPO_CACHE_DIR`, unless set: the default cache's `tests`): a
 program that several tests build (the gas sample's valuation, the pharma chain's solves, a CLI
 verb run in-process three times) compiles once per run, and a second run of the suite reads what
-the first compiled. Entries are written atomically and read whole (`snapo_ode._cache_trust`),
+the first compiled. Entries are written atomically and read whole (`snapo_ode._platform.cache_trust`),
 so the two workers share the directory safely. The tests of the cache itself (sharing one
 between processes, swapped and corrupt entries) make their own directories.
 
@@ -25,7 +25,7 @@ import jax  # noqa: E402
 import pytest  # noqa: E402
 
 import snapo_ode  # noqa: E402
-from snapo_ode._resources import relieve_mappings_after_compiles  # noqa: E402
+from snapo_ode._platform.resources import relieve_mappings_after_compiles  # noqa: E402
 
 
 

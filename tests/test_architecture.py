@@ -1,4 +1,5 @@
-"""The architecture holds: the core imports no domain and the domains never import each other; no
+"""The architecture holds: the core imports no domain and the domains never import each other;
+inside the core, no room imports a room above it (platform < numerics < solvers < runtime); no
 import cycles; pyflakes finds nothing; notebooks import no private module; no module grows past
 about 300 lines; and `snapo --help` imports no JAX."""
 
@@ -58,6 +59,27 @@ def test_layers(graph):
                 assert other == "snapo_ode", f"the core module {name} imports the domain module {target}"
             else:
                 assert other in (top, "snapo_ode"), f"{name} imports {target}: domains never import each other"
+
+
+# The core's rooms, lowest first (docs/architecture.md): a module imports only its own room and those below.
+ROOMS = ("snapo_ode._platform", "snapo_ode", "snapo_ode._solver", "snapo_ode._runtime")
+
+
+def _room(module: str) -> int:
+    """The room of a core module: its folder, the numerics at the package's root, `cli` the runtime's."""
+    if module == "snapo_ode.cli":
+        return ROOMS.index("snapo_ode._runtime")
+    folder = module.rpartition(".")[0] if module.count(".") > 1 else "snapo_ode"
+    return ROOMS.index(folder)
+
+
+def test_the_core_rooms_import_only_downwards(graph):
+    core = [name for name in graph if name.startswith("snapo_ode.")]
+    assert {_room(name) for name in core} == set(range(len(ROOMS))), "every room holds modules"
+    for name in core:
+        for target in graph[name]:
+            if target != "snapo_ode":
+                assert _room(target) <= _room(name), f"{name} imports {target}, a room above its own"
 
 
 def test_no_import_cycles(graph):

@@ -1,4 +1,4 @@
-"""`SolverSettings(solver="bdf")` (`snapo_ode._bdf`): against an analytic solution, against
+"""`SolverSettings(solver="bdf")` (`snapo_ode._solver.bdf`): against an analytic solution, against
 SciPy's BDF (the same formulas, step for step) and a tight Radau reference on Robertson's
 problem, reverse- and forward-mode derivatives (through arguments and through values the
 vector field closes over) against central bumps, batches, and its refusals and failures."""

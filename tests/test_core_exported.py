@@ -19,14 +19,14 @@ import jax.numpy as jnp
 import pytest
 
 import snapo_ode
-from snapo_ode._export_keys import EXPORTED_DIRECTORY
+from snapo_ode._runtime.export_keys import EXPORTED_DIRECTORY
 
 SCRIPT = """
 import json, sys, warnings
 import diffrax, equinox as eqx, jax, jax.numpy as jnp, numpy as np
 from jax._src.dispatch import BACKEND_COMPILE_EVENT
 import snapo_ode
-from snapo_ode._export_keys import EXPORTED_DIRECTORY
+from snapo_ode._runtime.export_keys import EXPORTED_DIRECTORY
 
 snapo_ode.configure()
 compiles, hits, traces = [], [], []
@@ -179,7 +179,7 @@ def _double(x):
 
 
 def test_new_arrays_of_the_same_shapes_reuse_the_entry_without_describing_it_again(monkeypatch):
-    import snapo_ode._exported as module
+    import snapo_ode._runtime.exported as module
 
     described = []
     describe = module.describe

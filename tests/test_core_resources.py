@@ -25,15 +25,15 @@ def test_compiled_programs_are_dropped_near_the_mapping_limit():
 def test_the_hot_path_check_reads_the_mappings_only_after_a_compile(monkeypatch):
     """`relieve_mappings_after_compiles` (called by `call_checked` and `time_function`) reads
     /proc/self/maps once after each XLA compile, not on every call."""
-    from snapo_ode import _resources
+    from snapo_ode._platform import resources
 
     reads = []
-    monkeypatch.setattr(_resources, "relieve_mappings", lambda: reads.append(1) or False)
-    _resources.relieve_mappings_after_compiles()
+    monkeypatch.setattr(resources, "relieve_mappings", lambda: reads.append(1) or False)
+    resources.relieve_mappings_after_compiles()
     reads.clear()
-    assert _resources.relieve_mappings_after_compiles() is False and reads == []
+    assert resources.relieve_mappings_after_compiles() is False and reads == []
     jax.jit(lambda x: jnp.cos(x) * 3.0 + 1.0)(jnp.ones(5))  # a new program: one compile
-    _resources.relieve_mappings_after_compiles()
+    resources.relieve_mappings_after_compiles()
     assert reads == [1]
-    _resources.relieve_mappings_after_compiles()
+    resources.relieve_mappings_after_compiles()
     assert reads == [1]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from snapo_ode import Rodas4, diffeqsolve_checked
-from snapo_ode._rosenbrock import Rodas5
+from snapo_ode._solver.rosenbrock import Rodas5
 
 SOLVERS = pytest.mark.parametrize("solver", [Rodas4(), Rodas5()], ids=["rodas4", "rodas5"])
 

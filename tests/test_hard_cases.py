@@ -85,10 +85,10 @@ def test_gri30_gradients_stay_finite_where_trial_steps_overshoot_and_match_bumps
     # CPU and on a GPU, single or batched, since rejected trial steps reached 14,500-72,500 K,
     # where the rates overflow and the reverse pass met 0 * inf. Such states now reject the step.
     # The BDF meets them in its Newton iteration (a non-finite rate fails it); its replay, vmapped,
-    # runs on past a member's last step at a finite no-op (see snapo_ode._bdf._replay).
+    # runs on past a member's last step at a finite no-op (see snapo_ode._solver.bdf._replay).
     from chemistry import IGNITION_CASES, REACTOR_SOLVER, Mechanism, temperature_sensitivities_batch
-    from chemistry._batch_bench import batch_conditions
-    from chemistry._sensitivities import temperature_at
+    from chemistry.kinetics._batch_bench import batch_conditions
+    from chemistry.kinetics._sensitivities import temperature_at
 
     mechanism = Mechanism.from_yaml(f"{cantera.__file__.rsplit('/', 1)[0]}/data/gri30.yaml")
     case = IGNITION_CASES["gri30"]

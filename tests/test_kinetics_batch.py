@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import chemistry._batch as batch_module
+import chemistry.kinetics._batch as batch_module
 from chemistry import (
     ONE_ATM,
     REACTOR_SOLVER,
@@ -25,10 +25,10 @@ from chemistry import (
     temperature_at,
     temperature_sensitivities_batch,
 )
-from chemistry._bench import cantera_seconds
-from chemistry._ignition import IGNITION_CASES, trajectory_and_delay
-from chemistry._reactor import Reactor, simulate
-from chemistry._sensitivities import with_multipliers
+from chemistry.kinetics._bench import cantera_seconds
+from chemistry.kinetics._ignition import IGNITION_CASES, trajectory_and_delay
+from chemistry.kinetics._reactor import Reactor, simulate
+from chemistry.kinetics._sensitivities import with_multipliers
 from snapo_ode import InputError, SolverFailed
 from snapo_ode.cli import main
 
@@ -222,7 +222,7 @@ def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
 
 def test_the_batch_bench_refuses_to_time_non_finite_results():
     # Half of a gri30 sample's gradients were once NaN, and the bench timed them as results.
-    from chemistry._batch_bench import _compiled_and_timed
+    from chemistry.kinetics._batch_bench import _compiled_and_timed
 
     with pytest.raises(SolverFailed, match="the batch bench's program gave non-finite values"):
         _compiled_and_timed(eqx.filter_jit(lambda x: jnp.log(x - 1.0)), (jnp.zeros(2),), 1)

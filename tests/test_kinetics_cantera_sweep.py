@@ -12,7 +12,7 @@ import cantera
 import pytest
 
 from chemistry import Mechanism, compare_rates
-from chemistry._sweep import cantera_data_directory, ideal_gas_phases, sweep_phase
+from chemistry.kinetics._sweep import cantera_data_directory, ideal_gas_phases, sweep_phase
 from snapo_ode import InputError
 from snapo_ode.cli import main
 

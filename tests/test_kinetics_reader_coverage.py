@@ -14,8 +14,8 @@ import pytest
 
 import snapo_ode
 from chemistry import MECHANISMS, Mechanism, compare_rates
-from chemistry._crosscheck import compare_thermo
-from chemistry._sweep import cantera_data_directory
+from chemistry.kinetics._crosscheck import compare_thermo
+from chemistry.kinetics._sweep import cantera_data_directory
 from snapo_ode import InputError
 
 snapo_ode.configure()
@@ -100,7 +100,7 @@ def test_shomate_thermo_matches_cantera_on_either_side_of_its_midpoint(tmp_path)
 
 @pytest.mark.parametrize("file", ["h2o2.yaml", "gri30.yaml", "airNASA9.yaml", "mixed", "shomate"])
 def test_the_hottest_thermo_fit_is_cantera_s(tmp_path, file):
-    # The reactors reject trial states far above it (chemistry._reactor.TRIAL_TEMPERATURE_CEILING).
+    # The reactors reject trial states far above it (chemistry.kinetics._reactor.TRIAL_TEMPERATURE_CEILING).
     path = {"mixed": lambda: _write(tmp_path, MIXED), "shomate": lambda: _write(tmp_path, SHOMATE)}.get(
         file, lambda: DATA / file)()
     expected = max(species.thermo.max_temp for species in cantera.Solution(str(path)).species())

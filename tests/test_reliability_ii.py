@@ -162,8 +162,8 @@ def test_outputs_write_through_links_and_into_streams(tmp_path, capsys):
 
 
 def test_every_failure_has_its_exit_code_and_one_line(tmp_path, capsys, monkeypatch):
-    from snapo_ode import _io
-    from snapo_ode._exits import ended
+    from snapo_ode._platform import files
+    from snapo_ode._runtime.exits import ended
 
     def full_disk(path, data):
         raise OSError(errno.ENOSPC, "No space left on device", str(path))
@@ -180,7 +180,7 @@ def test_every_failure_has_its_exit_code_and_one_line(tmp_path, capsys, monkeypa
         assert ended(fail) == code
         err = capsys.readouterr().err
         assert err.startswith("snapo: error: ") and err.count("\n") == 1 and message in err, err
-    monkeypatch.setattr(_io, "_write_temporary", full_disk)
+    monkeypatch.setattr(files, "_write_temporary", full_disk)
     err = error_of(["gas", "--train-steps", "1", "--no-progress", "--out", str(tmp_path / "full")], capsys, 4)
     assert "No space left on device; free some space" in err
 

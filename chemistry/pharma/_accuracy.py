@@ -12,7 +12,7 @@ from snapo_ode import (
     AccuracyStudy, Panel, Point, agreement, call_checked, compare_with_bumps, compiled_temp_bytes, time_function,
     timed_point)
 
-from .._gradient_accuracy import ignition_gradient_panel
+from ..kinetics._gradient_accuracy import ignition_gradient_panel
 from ._chain import CHAIN_SOLVER, PharmaChain
 from ._cqa import cqa_vector
 from ._parameters import make_cpps

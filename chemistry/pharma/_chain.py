@@ -15,7 +15,7 @@ import numpy as np
 from chemistry import MECHANISMS, Mechanism, RateParameters
 from snapo_ode import EffectCatalogue, InputError, Scene, SolverSettings
 
-from .._types import Scalar, Vector
+from ..kinetics._types import Scalar, Vector
 from ._crystallizer import (
     Crystallizer, CrystallizerOutlet, CoolingCrystallizer, EquilibriumIsolation, SpeciesRoles)
 from ._dryer import Dryer

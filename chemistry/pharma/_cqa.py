@@ -5,7 +5,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._types import Batch, Scalar, Vector
+from ..kinetics._types import Batch, Scalar, Vector
 from ._chain import ChainResult
 from ._ranges import CQA_NAMES, CQA_SPECS
 

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 from chemistry import GAS_CONSTANT
 from snapo_ode import SolverSettings
 
-from .._types import Scalar, Vector
+from ..kinetics._types import Scalar, Vector
 from ._parameters import ChainInputs, arrhenius
 from ._profiles import AbstractTemperatureProfile, LinearRamp
 from ._unit import AbstractUnit, Liquid

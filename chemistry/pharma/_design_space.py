@@ -48,7 +48,7 @@ SURROGATE = ("second order in the log rate constants: ln CQA = ln CQA0 + S d + d
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class DesignSpace(Result):
     """P(all CQAs within spec) over a grid of CPPs `x` and `y` (`x_values`, `y_values`, spanning
-    their PARs; arrays indexed [i_x][i_y]).
+    their PARs; arrays indexed `[i_x][i_y]`).
 
     **Fields:** `probability` (the surrogate map, `surrogate_samples` draws), `probability_by_cqa`
     (cqa -> map), `nominal_cqas` (cqa -> map of the CQA at the nominal kinetics), `limiting_cqa`

@@ -18,7 +18,7 @@ SIGMA = 0.1
 
 
 def device_scaling(*, mesh, quick: bool, seed: int, repeats: int) -> list[dict]:
-    """Rows of `snapo bench scaling` (see `snapo_ode._scaling`) for strong and weak scaling on
+    """Rows of `snapo bench scaling` (see `snapo_ode._runtime.scaling`) for strong and weak scaling on
     `mesh` (None: one device; `quick`: a test's size), `repeats` timed calls a point."""
     devices = 1 if mesh is None else mesh.size
     strong, weak = (QUICK_STRONG_DRAWS, QUICK_WEAK_DRAWS_PER_DEVICE) if quick else (STRONG_DRAWS,

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 
 from snapo_ode import SolverSettings
 
-from .._types import Scalar
+from ..kinetics._types import Scalar
 from ._parameters import ChainInputs, arrhenius
 from ._unit import AbstractUnit, Solids
 

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 
 from snapo_ode import SolverSettings
 
-from .._types import Vector
+from ..kinetics._types import Vector
 from ._crystallizer import Slurry, SpeciesRoles
 from ._parameters import ChainInputs
 from ._unit import AbstractUnit, Solids

@@ -17,7 +17,7 @@ import numpy as np
 from chemistry import GAS_CONSTANT, RateParameters
 from snapo_ode import InputError, check_range
 
-from .._types import Scalar
+from ..kinetics._types import Scalar
 from ._ranges import CPP_NAMES, CPP_RANGES
 
 

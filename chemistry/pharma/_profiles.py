@@ -6,7 +6,7 @@ import jax.numpy as jnp
 
 from snapo_ode import MLPPolicy
 
-from .._types import Scalar
+from ..kinetics._types import Scalar
 
 
 class AbstractTemperatureProfile(eqx.Module):

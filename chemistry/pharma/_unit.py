@@ -16,7 +16,7 @@ import equinox as eqx
 
 from snapo_ode import SolverSettings
 
-from .._types import Scalar, Vector
+from ..kinetics._types import Scalar, Vector
 from ._parameters import ChainInputs
 
 

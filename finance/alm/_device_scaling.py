@@ -19,7 +19,7 @@ QUICK_STRONG_PATHS, QUICK_WEAK_PATHS_PER_DEVICE, QUICK_HORIZON_MONTHS = 64, 32, 
 
 
 def device_scaling(*, mesh, quick: bool, seed: int, repeats: int) -> list[dict]:
-    """Rows of `snapo bench scaling` (see `snapo_ode._scaling`) for strong and weak scaling on
+    """Rows of `snapo bench scaling` (see `snapo_ode._runtime.scaling`) for strong and weak scaling on
     `mesh` (None: one device; `quick`: a test's size), `repeats` timed calls a point."""
     devices = 1 if mesh is None else mesh.size
     horizon = QUICK_HORIZON_MONTHS if quick else HORIZON_MONTHS

@@ -1,0 +1,189 @@
+"""Atomic writes: a result is either fully on disk or not there at all, and the outputs of one
+command form a set that a reader sees old or new, never mixed.
+
+- `atomic_write_*`: one file, through a temporary file in the same directory and `os.replace`.
+  A new file gets the permissions the umask allows (as `open` would give it); a replaced file
+  keeps its mode.
+- `publish`: several files: every one is serialised and written to a temporary file first, so a
+  failure (a NaN refused by the JSON writer, a full disk) leaves the old set untouched; then they
+  replace the old files in the order given, the index (the JSON that names the others, with their
+  SHA-256) last.
+- `publish_directory`: a whole directory (a report): written as a temporary sibling and swapped
+  in, so the old directory or the new one is there, never a mix. Only a directory this function
+  wrote before (it holds `MANIFEST`) or an empty one is replaced.
+
+Symbolic links are written through (`output_target`): the link stays and its target gets the new
+content, atomically. A stream (a character device such as /dev/null or /dev/stdout, a named pipe)
+is written into, never replaced; any other target that is not a regular file (a directory, a
+block device, a socket) is refused with `InputError`.
+"""
+
+import hashlib
+import json
+import os
+import pathlib
+import shutil
+import stat
+import tempfile
+from collections.abc import Mapping
+from typing import Any
+
+from .validation import InputError
+
+MANIFEST = "MANIFEST.json"
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def output_target(path: str | os.PathLike, what: str = "output") -> pathlib.Path:
+    """The file a write to `path` replaces: `path` with every symbolic link followed.
+
+    **Raises:** `InputError` naming `what` (e.g. "--json") when that file exists and is not a
+    regular file (a directory, a device such as /dev/null, a pipe or a socket)."""
+    target = pathlib.Path(os.path.realpath(path))
+    if target.exists() and not target.is_file() and not _is_stream(target):
+        kind = "a directory" if target.is_dir() else "not a regular file (a block device or a socket)"
+        raise InputError(f"{what} = {str(path)!r}{f' (-> {str(target)!r})' if target != pathlib.Path(path) else ''} "
+                         f"is {kind}; give the path of a file to write.")
+    return target
+
+
+def _is_stream(path: pathlib.Path) -> bool:
+    """Whether `path` is a character device or a named pipe, written into rather than replaced."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return False
+    return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
+
+
+def _write_temporary(path: pathlib.Path, data: bytes) -> pathlib.Path:
+    """`data` in a new temporary file beside `path`, flushed to disk, with the mode `path` has
+    (or the umask allows); returns the temporary path."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        mode = path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask()
+        os.chmod(tmp, mode)
+    except BaseException:
+        pathlib.Path(tmp).unlink(missing_ok=True)
+        raise
+    return pathlib.Path(tmp)
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> pathlib.Path:
+    """Write `data` to `path` through a temporary file in the same directory and `os.replace`."""
+    path = output_target(path)
+    if _is_stream(path):
+        with open(path, "wb") as stream:
+            stream.write(data)
+        return path
+    tmp = _write_temporary(path, data)
+    try:
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def json_bytes(payload: Any) -> bytes:
+    """`payload` as indented UTF-8 JSON. NaN and infinities are refused (`ValueError`)."""
+    return (json.dumps(payload, indent=2, allow_nan=False) + "\n").encode("utf-8")
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> pathlib.Path:
+    """Write UTF-8 `text` atomically."""
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_json(path: str | os.PathLike, payload: Any) -> pathlib.Path:
+    """Write `payload` as indented JSON atomically. NaN and infinities are refused."""
+    return atomic_write_bytes(path, json_bytes(payload))
+
+
+def sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def publish(files: Mapping[str | os.PathLike, bytes]) -> list[pathlib.Path]:
+    """Write several files as one set: all to temporary files first, then each replaces its
+    target in the order given (put the index, the file naming the others, last). Returns the
+    paths. Nothing is replaced if any temporary write fails."""
+    temporaries: list[tuple[pathlib.Path, pathlib.Path]] = []
+    streams = {}
+    try:
+        for path, data in files.items():
+            path = output_target(path)
+            if _is_stream(path):
+                streams[path] = data
+            else:
+                temporaries.append((_write_temporary(path, data), path))
+        for tmp, path in temporaries:
+            os.replace(tmp, path)
+    finally:
+        for tmp, _ in temporaries:
+            tmp.unlink(missing_ok=True)
+    for path, data in streams.items():
+        atomic_write_bytes(path, data)
+    return [path for _, path in temporaries] + list(streams)
+
+
+def check_replaceable_directory(out: str | os.PathLike, what: str = "--out") -> pathlib.Path:
+    """Raise `InputError` unless `out` is absent, an empty directory, or one `publish_directory`
+    wrote (it holds MANIFEST.json): anything else would be deleted by the swap. Also refuses an
+    existing file and a parent that cannot be written. Call it before computing."""
+    out = pathlib.Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{what} = {str(out)!r} is an existing file; give a directory.")
+    if out.is_dir() and any(out.iterdir()) and not (out / MANIFEST).is_file():
+        raise InputError(f"{what} = {str(out)!r} holds files that no earlier run wrote (no {MANIFEST}); it "
+                         "would be replaced whole: give a new or empty directory.")
+    check_writable_under(out.resolve().parent, what)
+    return out
+
+
+def check_writable_under(directory: str | os.PathLike, what: str) -> None:
+    """Raise `InputError` (naming the flag `what`) unless files can be created in `directory`:
+    its nearest existing ancestor must be a writable directory, not a file."""
+    path = pathlib.Path(directory)
+    while not path.exists():
+        path = path.parent
+    if not path.is_dir():
+        raise InputError(f"{what}: {str(path)!r} is a file, so nothing can be written under it.")
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise InputError(f"{what}: the directory {str(path)!r} is not writable.")
+
+
+def publish_directory(out: str | os.PathLike, files: Mapping[str, bytes]) -> list[pathlib.Path]:
+    """Write `files` (name -> bytes) as the directory `out`, with a MANIFEST.json (the SHA-256 of
+    each file): built as a temporary sibling, then swapped in for the old directory, so a reader
+    sees the old set or the new one. `out` must pass `check_replaceable_directory`."""
+    out = pathlib.Path(os.path.realpath(check_replaceable_directory(out)))  # a link to it stays a link
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = pathlib.Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp"))
+    try:
+        os.chmod(staging, 0o777 & ~_umask())
+        manifest = {"files": {name: sha256(data) for name, data in files.items()}}
+        for name, data in {**files, MANIFEST: json_bytes(manifest)}.items():
+            atomic_write_bytes(staging / name, data)
+        if out.exists():
+            retired = pathlib.Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".old"))
+            retired.rmdir()
+            os.replace(out, retired)
+            os.replace(staging, out)
+            shutil.rmtree(retired, ignore_errors=True)
+        else:
+            os.replace(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return [out / name for name in files]
