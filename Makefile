@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow wheel-check bench accuracy clean
+.PHONY: demo test test-slow wheel-check bench accuracy docs clean
 
 $(STAMP): pyproject.toml requirements.lock
 	$(PYTHON) -m venv $(VENV)
@@ -12,6 +12,12 @@ $(STAMP): pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q -r requirements.lock
 	$(BIN)/python -m pip install -q --no-deps --no-build-isolation -e .
 	touch $(STAMP)
+
+DOCS_STAMP := $(VENV)/.docs-installed
+
+$(DOCS_STAMP): $(STAMP) requirements-docs.lock
+	$(BIN)/python -m pip install -q -c requirements.lock -r requirements-docs.lock
+	touch $(DOCS_STAMP)
 
 demo: $(STAMP)
 	$(BIN)/snapo demo
@@ -38,5 +44,12 @@ bench: $(STAMP)
 accuracy: $(STAMP)
 	$(BIN)/snapo bench accuracy --out docs
 
+# The documentation site into site/ (mkdocs.yml): strict, any warning fails the build; the API
+# reference generated from the public names; the notebooks executed and rendered at their small
+# size (`make docs NOTEBOOKS=full` runs them at the size of the figures in the docs: long).
+docs: $(DOCS_STAMP)
+	NO_MKDOCS_2_WARNING=1 MPLBACKEND=Agg SNAPO_NOTEBOOK_SMALL=$(if $(filter full,$(NOTEBOOKS)),0,1) \
+		$(BIN)/mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) snapo-out .pytest_cache
+	rm -rf $(VENV) snapo-out .pytest_cache site .cache
