@@ -25,9 +25,10 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not slow" --durations=25
 
-# The tests marked slow (README, "Tests": the accuracy page's stiff and gradients studies, the
+# The tests marked slow (docs/tests.md: the accuracy page's stiff and gradients studies, the
 # kinetics bench with a batch, gri30's Rodas5 gradients and concentration Jacobian, the pharma
-# design space on two devices, vmapped against one-at-a-time ignition gradients; ~35 minutes).
+# design space on two devices, vmapped against one-at-a-time ignition gradients, the five notebooks
+# end to end, which `make docs` also executes; ~37 minutes).
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m slow --durations=10
 

@@ -105,13 +105,14 @@ def test_reverse_and_forward_mode_derivatives_match_central_bumps(solver):
 @pytest.mark.parametrize("method", [Rodas4, Rodas5], ids=["rodas4", "rodas5"])
 def test_stages_in_a_loop_and_unrolled_are_the_same_method(method):
     """The default step loops over its middle stages (traced once); unrolled, every stage is
-    written out. The same arithmetic: equal values and reverse-mode derivatives."""
+    written out. The same arithmetic: equal values and reverse-mode derivatives, to round-off at
+    the Jacobian's scale (its entries span 14 orders; XLA may contract the two differently)."""
     looped, unrolled = method(), method(unroll_stages=True)
     np.testing.assert_allclose(np.asarray(jax.jit(lambda k: _solve(k, looped))(K)),
                                np.asarray(jax.jit(lambda k: _solve(k, unrolled))(K)), rtol=1e-12, atol=1e-20)
     np.testing.assert_allclose(np.asarray(jax.jit(jax.jacrev(lambda k: _solve(k, looped)))(K)),
                                np.asarray(jax.jit(jax.jacrev(lambda k: _solve(k, unrolled)))(K)), rtol=1e-9,
-                               atol=1e-20)
+                               atol=1e-13)
 
 
 @SOLVERS

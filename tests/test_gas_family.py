@@ -46,10 +46,11 @@ def test_each_shape_and_kind_has_its_feature():
 def test_bench_gas_family_writes_its_table(tmp_path):
     from snapo_ode.cli import main
 
-    assert main(["bench", "gas-family", "--cases", "1", "--paths", "64", "--train-steps", "2", "--volatility", "high",
-                 "--no-progress", "--out", str(tmp_path)]) == 0
+    assert main(["bench", "gas-family", "--case", "nowhere-fast-90", "--out", str(tmp_path)]) == 2  # before any compile
+    assert main(["bench", "gas-family", "--case", "weekly-fuel_costs-90", "--paths", "64", "--train-steps", "2",
+                 "--volatility", "high", "--no-progress", "--out", str(tmp_path)]) == 0
     table = json.loads((tmp_path / "bench_gas_family.json").read_text())
     (row,) = table["rows"]
-    assert row["case"] == "weekly-slow-365" and row["volatility"] == "high"
+    assert row["case"] == "weekly-fuel_costs-90" and row["volatility"] == "high"
     assert row["dual_upper_bound"] >= row["intrinsic_lp"] and row["lsmc_out_of_sample"] > row["intrinsic_lp"]
     assert (tmp_path / "bench_gas_family.csv").read_text().startswith("case,")

@@ -112,9 +112,9 @@ def _spectral_radii(chain, cpps, physical) -> dict[bool, float]:
     def recording(self, rhs, t0, t1, y0, args=None, *, stiff=True, saveat=None, **kwargs):
         solution = solve(self, rhs, t0, t1, y0, args, stiff=stiff, saveat=diffrax.SaveAt(steps=True), **kwargs)
         finite = np.isfinite(np.asarray(solution.ts))
-        for s, y in zip(np.asarray(solution.ts)[finite], np.asarray(solution.ys)[finite], strict=True):
-            jacobian = np.asarray(jax.jacfwd(lambda y: rhs(s, y, args))(jnp.asarray(y)))
-            radii[stiff] = max(radii[stiff], float(np.abs(np.linalg.eigvals(jacobian)).max()))
+        ts, ys = jnp.asarray(np.asarray(solution.ts)[finite]), jnp.asarray(np.asarray(solution.ys)[finite])
+        jacobians = jax.vmap(jax.jacfwd(lambda s, y: rhs(s, y, args), argnums=1))(ts, ys)  # one per step
+        radii[stiff] = max(radii[stiff], float(np.abs(np.linalg.eigvals(np.asarray(jacobians))).max()))
         last = int(solution.stats["num_accepted_steps"]) - 1
         return solution if saveat is not None else eqx.tree_at(lambda s: s.ys, solution, solution.ys[last:last + 1])
 

@@ -6,7 +6,7 @@ deltas <= 60 s)."""
 import pathlib
 import time
 
-from snapo_ode import Column, format_table, write_table
+from snapo_ode import Column, check_choice, format_table, write_table
 
 from ._cases import BDJ_MEAN_REVERSION, BDJ_VOLATILITY
 from ._family import family
@@ -45,16 +45,28 @@ def _goals(comparison) -> str:
     return "all" if not missed else "missed: " + ", ".join(missed)
 
 
+def chosen_cases(cases: int | None, names: tuple[str, ...] | None, seed: int) -> list:
+    """The first `cases` of the family, or those `names` (in the family's order; each checked)."""
+    if not names:
+        return family(cases, seed)
+    every = family(None, seed)
+    for name in names:
+        check_choice("--case", name, [case.name for case in every])
+    return [case for case in every if case.name in names]
+
+
 def run_family_benchmark(out: pathlib.Path, *, paths: int, cases: int | None, seed: int, train_steps: int | None,
-                         nodes: int, volatilities: tuple[str, ...] = ("low", "high"), progress: bool = True) -> list[dict]:
-    """Value each generated case (`_family.family(cases, seed)`) at B&dJ's mean reversion and each
-    of `volatilities` (B&dJ's low and high), `paths` fresh paths (LSMC fitted on as many others,
+                         nodes: int, volatilities: tuple[str, ...] = ("low", "high"), progress: bool = True,
+                         names: tuple[str, ...] | None = None) -> list[dict]:
+    """Value each generated case (`_family.family(cases, seed)`; the cases `names` instead where
+    given) at B&dJ's mean reversion and each of `volatilities` (B&dJ's low and high), `paths` fresh paths (LSMC fitted on as many others,
     on `nodes` levels or as many more as a slow facility's daily flow needs);
     print the table and write `bench_gas_family.csv` / `.json` under `out`, after every row (so a
     long run that stops keeps the rows it finished)."""
+    chosen = chosen_cases(cases, names, seed)
     rows, results = [], {}
     start = time.perf_counter()
-    for case in family(cases, seed):
+    for case in chosen:
         for level in volatilities:
             inputs = make_inputs(case.facility, case.curve, volatility=BDJ_VOLATILITY[level],
                                  mean_reversion=BDJ_MEAN_REVERSION)

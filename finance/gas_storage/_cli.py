@@ -142,7 +142,8 @@ def run_bench_family(args) -> int:
     from ._bench_family import run_family_benchmark
 
     run_family_benchmark(args.out, paths=args.paths, cases=args.cases, seed=args.seed, train_steps=args.train_steps,
-                         nodes=args.lsmc_nodes, volatilities=tuple(args.volatility), progress=args.progress)
+                         nodes=args.lsmc_nodes, volatilities=tuple(args.volatility), progress=args.progress,
+                         names=tuple(args.case or ()))
     return 0
 
 
@@ -189,6 +190,8 @@ def register_gas(cli) -> None:
                        "facilities (fast, slow, ratchets, fuel and costs, everything), the same fresh paths")
     family.add_argument("--paths", type=count(), default=10_000, help="LSMC fitting paths and evaluation paths")
     family.add_argument("--cases", type=count(), help="the first CASES of the family (default: all 14)")
+    family.add_argument("--case", nargs="+", metavar="NAME", help="only these cases, named as in the table "
+                        "(e.g. flat-fast-90 spikes-ratchets-90); a row to rerun")
     family.add_argument("--volatility", nargs="+", choices=["low", "high"], default=["low", "high"],
                         help="B&dJ's volatilities to run (mean reversion 0.05/day)")
     family.add_argument("--train-steps", type=count(), help="SNAPO training steps (default: the head's)")
