@@ -8,7 +8,7 @@ from snapo_ode.cli import main
 
 KEYS = {"objective", "funding_ratio", "sensitivities", "adjoint_seconds", "bump_seconds",
         "forward_mode_seconds", "speedup", "max_rel_diff", "train_seconds", "compile_seconds",
-        "objective_smooth", "smoothing_gap", "baselines"}
+        "objective_smooth", "smoothing_gap", "baselines", "value_seconds", "gradient_forward_ratio"}
 
 
 def _run(argv):

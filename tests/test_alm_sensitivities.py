@@ -43,6 +43,7 @@ def test_forward_mode_and_timed_bump_agree_with_the_adjoint():
         name for group in study.layout.reported
         for name in alm.factor_names(study.layout, study.market)[group]}
     assert measured.speedup == pytest.approx(measured.bump_seconds / measured.adjoint_seconds)
+    assert measured.gradient_forward_ratio == pytest.approx(measured.adjoint_seconds / measured.value_seconds)
 
 
 def _flat_cash_fund(rate, horizon):

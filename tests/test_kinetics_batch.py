@@ -191,6 +191,7 @@ def test_bench_kinetics_with_a_batch_writes_per_reactor_fields(tmp_path):
     assert abs(row["final_temperature_K"] / row["cantera_final_temperature_K"] - 1) < 1e-5
     assert all(row[key] > 0 for key in ("forward_s", "gradient_s", "cantera_forward_s", "cantera_sensitivities_s",
                                         "forward_bdf_s"))
+    assert row["gradient_forward_ratio"] == pytest.approx(row["gradient_s"] / row["forward_s"])
     # The converged reference (our Rodas5 at rtol 1e-13) against Cantera's at rtol 1e-12 / atol 1e-20,
     # and each solver's error against it: the BDF within its tolerances' reach (atol-dominated).
     _, cantera_converged = cantera_seconds(Path(cantera.__file__).parent / "data" / "h2o2.yaml", IGNITION_CASES["h2o2"],

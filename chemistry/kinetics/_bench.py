@@ -117,6 +117,8 @@ def benchmark_mechanism(name: str, repeats: int, batch: int | None = None, scali
         "gradient_bdf_speedup_vs_cantera_sensitivities": cantera_sensitivity / gradient_bdf.median_seconds,
         "gradient_bdf_vs_rodas5_max_relative_difference": float(
             jnp.max(jnp.abs(bdf_gradient - rodas5_gradient)) / jnp.max(jnp.abs(rodas5_gradient))),
+        "gradient_forward_ratio": gradient.median_seconds / forward.median_seconds,
+        "gradient_bdf_forward_ratio": gradient_bdf.median_seconds / forward_bdf.median_seconds,
         "forward_slowdown_vs_cantera": forward.median_seconds / cantera_forward,
         "forward_bdf_slowdown_vs_cantera": forward_bdf.median_seconds / cantera_forward,
         **{f"{who}_temperature_rel_error": abs(value - reference) / reference
@@ -138,6 +140,8 @@ COLUMNS = (
     Column("T error Cantera", "cantera_temperature_rel_error", ".1e"),
     Column("our gradient s (Rodas5; all A, one reverse pass)", "gradient_s", ".3f"),
     Column("our gradient s (BDF)", "gradient_bdf_s", ".4f"),
+    Column("gradient / forward (Rodas5)", "gradient_forward_ratio", ".1f"),
+    Column("gradient / forward (BDF)", "gradient_bdf_forward_ratio", ".1f"),
     Column("Cantera + forward sensitivities s", "cantera_sensitivities_s", ".2f"),
     Column("Rodas5 gradient vs Cantera's sensitivities", "gradient_speedup_vs_cantera_sensitivities",
            lambda v: f"{v:.1f}x"),

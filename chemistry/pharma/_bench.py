@@ -47,6 +47,7 @@ def run_pharma_benchmark(out: pathlib.Path, *, rtols, repeats: int) -> int:
                          "seconds_median": timing.median_seconds, "compile_seconds": timing.compile_seconds,
                          "forward_pass_seconds": value_timing.median_seconds,
                          "ratio_to_forward_pass": timing.median_seconds / value_timing.median_seconds,
+                         "gradient_forward_ratio": timing.median_seconds / value_timing.median_seconds,
                          "rel_error_vs_reference": error,
                          "meets_goal": bool(timing.median_seconds <= GOAL_SECONDS and error <= GOAL_ERROR)})
     print(f"20 dCQA/dCPP sensitivities of the 4-unit chain (reference: rtol {REFERENCE.rtol:g}); "

@@ -18,6 +18,7 @@ from ._study import build_study, check_size, measure_sensitivities, scenarios
 DEFAULT_COUNTS = (10, 50, 100, 500, 1000, 2000)
 COLUMNS = (
     Column("N", "n_risk_factors"), Column("adjoint (one reverse pass) s", "adjoint_seconds", ".4f"),
+    Column("value alone s", "value_seconds", ".4f"), Column("grad/fwd", "gradient_forward_ratio", ".2f"),
     Column("central bump, batched (2N+1 runs) s", "bump_seconds", ".3f"),
     Column("forward mode (N tangents) s", "forward_mode_seconds", ".3f"),
     Column("speedup over bump", "speedup", lambda v: f"{v:.0f}x"),
@@ -47,6 +48,7 @@ def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: i
         rows.append(dict(
             n_risk_factors=layout.n_risk_factors, n_tenors=layout.n_tenors, n_equities=layout.n_equities,
             n_liability=layout.n_liability, adjoint_seconds=measured.adjoint_seconds,
+            value_seconds=measured.value_seconds, gradient_forward_ratio=measured.gradient_forward_ratio,
             bump_seconds=measured.bump_seconds, forward_mode_seconds=measured.forward_mode_seconds,
             speedup=measured.speedup, target_speedup=layout.n_risk_factors / 4,
             forward_mode_speedup=measured.forward_mode_speedup, max_rel_diff=measured.max_rel_diff,

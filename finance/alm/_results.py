@@ -34,11 +34,15 @@ class SensitivityMeasurement(Result):
     """The smooth objective's sensitivities to every reported factor from one reverse pass
     (`sensitivities`, name -> value; `gradient`, the pytree), and with the baselines the same by
     batched central bump-and-revalue and batched forward mode on the same paths, timed side by
-    side (medians after a first call; `compile_seconds` per method, first call less median)."""
+    side (medians after a first call; `compile_seconds` per method, first call less median).
+    `value_seconds`: the objective alone on the same paths; `gradient_forward_ratio`: the reverse
+    pass (value and every sensitivity) over it, both timed in this call."""
 
     value: float = field(json=False)
     sensitivities: dict
     adjoint_seconds: float
+    value_seconds: float
+    gradient_forward_ratio: float
     bump_seconds: float | None
     forward_mode_seconds: float | None
     speedup: float | None
@@ -50,7 +54,7 @@ class SensitivityMeasurement(Result):
     comparison: BumpComparison | None = field(json=False, default=None)
 
     def summary(self) -> str:
-        text = f"adjoint {self.adjoint_seconds:.4f} s"
+        text = f"adjoint {self.adjoint_seconds:.4f} s ({self.gradient_forward_ratio:.2f}x the value alone)"
         if self.speedup is not None:
             text += (f"; bump {self.bump_seconds:.3f} s (speedup {self.speedup:.0f}x, max rel diff "
                      f"{self.max_rel_diff:.1e}); forward mode {self.forward_mode_seconds:.3f} s")

@@ -186,8 +186,8 @@ def evaluate(study: Study, policy: AbstractRebalancing, shocks) -> Evaluation:
 
 def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, baselines: bool = True,
                           repeats: int = 3, baseline_repeats: int | None = None) -> SensitivityMeasurement:
-    """Sensitivities of the smooth objective to every reported factor by one reverse pass, and,
-    with `baselines`, by batched central bump-and-revalue and batched forward mode on the same
+    """Sensitivities of the smooth objective to every reported factor by one reverse pass (and
+    the objective alone, timed beside it for `gradient_forward_ratio`), and, with `baselines`, by batched central bump-and-revalue and batched forward mode on the same
     paths (`snapo_ode.compare_with_bumps`), timed side by side in this call.
 
     **Raises:** `FloatingPointError` if the objective or a sensitivity is not finite.
@@ -207,6 +207,7 @@ def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, 
         adjoint = eqx.filter_jit(lambda *args: value_and_sensitivities(fn, *args))
         timing, (value, gradient) = time_function(adjoint, *args, repeats=repeats)
         seconds, compile_seconds = timing.median_seconds, timing.compile_seconds
+    value_timing, _ = time_function(eqx.filter_jit(fn), *args, repeats=repeats)
     named = named_sensitivities(gradient, study.layout, study.market)
     if not np.isfinite(float(value)) or not all(np.isfinite(v) for v in named.values()):
         raise FloatingPointError("the ALM objective or a sensitivity is not finite; check the inputs.")
@@ -218,10 +219,11 @@ def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, 
                         max_rel_diff=comparison.max_rel_diff,
                         max_rel_diff_forward_mode=comparison.forward_mode_agreement.max_rel_diff)
     return SensitivityMeasurement(
-        value=float(value), sensitivities=named, adjoint_seconds=seconds,
+        value=float(value), sensitivities=named, adjoint_seconds=seconds, value_seconds=value_timing.median_seconds,
+        gradient_forward_ratio=seconds / value_timing.median_seconds,
         **{key: baseline.get(key) for key in ("bump_seconds", "forward_mode_seconds", "speedup",
                                               "forward_mode_speedup", "max_rel_diff", "max_rel_diff_forward_mode")},
-        compile_seconds=dict(adjoint=compile_seconds,
+        compile_seconds=dict(adjoint=compile_seconds, value=value_timing.compile_seconds,
                              bump=comparison.bump_compile_seconds if comparison else None,
                              forward_mode=comparison.forward_mode_compile_seconds if comparison else None),
         gradient=gradient, comparison=comparison)
