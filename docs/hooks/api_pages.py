@@ -60,18 +60,13 @@ def page(package: str) -> str:
 
 
 def on_files(files, config):
-    """Add `api/PACKAGE.md` for every public package, and the home page (the README)."""
+    """Add the home page (the README, its links made relative to the documentation) and
+    `api/PACKAGE.md` for every public package."""
     from mkdocs.structure.files import File  # here: the tests read the pages without mkdocs
 
-    files.append(File.generated(config, "index.md", content=""))
+    readme = (Path(config.config_file_path).parent / "README.md").read_text()
+    home = readme.replace("](docs/", "](").replace("](notebooks/)", "](notebooks/01_gas_storage.ipynb)")
+    files.append(File.generated(config, "index.md", content=home))
     for package in PACKAGES:
         files.append(File.generated(config, f"api/{package}.md", content=page(package)))
     return files
-
-
-def on_page_read_source(page, config):
-    """The home page is the README, its links made relative to the documentation."""
-    if page.file.src_uri != "index.md":
-        return None
-    readme = (Path(config.config_file_path).parent / "README.md").read_text()
-    return readme.replace("](docs/", "](").replace("](notebooks/)", "](notebooks/01_gas_storage.ipynb)")

@@ -9,8 +9,8 @@ paid by the command that computes. Uses the module `__getattr__` of PEP 562.
 import importlib
 import importlib.util
 import sys
-from types import MappingProxyType
 from collections.abc import Callable, Mapping, Sequence
+from types import MappingProxyType
 
 
 def lazy_exports(package: str, names_by_module: Mapping[str, Sequence[str]], submodules: Sequence[str] = ()
