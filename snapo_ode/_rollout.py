@@ -2,7 +2,7 @@
 `diffrax.diffeqsolve` through a fixed-step solver.
 
 Both give identical states and gradients (tested). `lax.scan` is the default because it is the
-faster of the two forward and compiles 7x faster (the rollout table of `snapo bench gas`); the
+faster of the two forward and compiles much faster (the rollout table of `snapo bench gas`); the
 Diffrax route lets a discrete-time model share Diffrax's adjoints and its memory bound.
 """
 
@@ -62,8 +62,8 @@ def rollout(
     - `n_steps`: number of steps (static).
     - `method`: `"scan"` (default, faster) or `"diffrax"` (`DiscreteStepper` under
       `diffeqsolve`, reverse pass by `RecursiveCheckpointAdjoint`).
-    - `checkpoints`: Diffrax only: checkpoints of the adjoint (default `n_steps`, which keeps the
-      gradient near 2-3x the forward cost; fewer bound memory at more recomputation).
+    - `checkpoints`: Diffrax only: checkpoints of the adjoint (default `n_steps`, a checkpoint at
+      every step, so that no step is recomputed; fewer bound memory at more recomputation).
     - `per_step`: optional pytree of arrays with a leading axis of length `n_steps` (prices,
       shocks, ...); step k receives slice k. Passing such data here rather than indexing a
       closed-over array in `step` keeps the reverse pass from accumulating a full-size

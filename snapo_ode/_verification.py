@@ -270,8 +270,8 @@ def compare_with_bumps(fn: Callable, inputs, *args, select: Callable | None = No
     - `scales`, `floor`, `zero`: as in `agreement`.
     - `repeats` (adjoint) and `bump_repeats` (bumps and forward mode; default `repeats`, at
       least 1): timed calls after the first; `bump_repeats=0`: the bumps are a check only, run
-      once and not timed (the pharma study's run for 0.17-0.41 s, a second time only to be
-      timed); forward mode is then timed on one call after the first.
+      once and not timed (for a check, a second run only to time it is time lost; the pharma
+      study's figure: docs/architecture.md); forward mode is then timed on one call after the first.
     - `sequential`: also time one revaluation and report 2n times its median.
     - `forward_mode`: also time forward mode on the same part (n tangents, vmapped, in chunks of
       `forward_batch_size` through `jax.lax.map` when given) and compare it with the adjoint.

@@ -7,18 +7,16 @@ Each reactor keeps its own adaptive step: under `jax.vmap`, Diffrax's while loop
 slowest reactor of the group has finished (the others' steps are computed and discarded), so a
 batch costs about (its largest step count) x (its size) single steps. `group_size` solves the
 batch in groups of that many (`jax.lax.map(..., batch_size=group_size)`): conditions sorted by
-expected difficulty then waste less (`IgnitionBatch.sorted_by`). Measured by `snapo bench kinetics
---batch 256` on gri30 (T0 1450-1500 K, P0 0.5-1 atm, to 1 ms, rtol 1e-10; a shared 2-core
-machine): 447 ms a reactor as one vmap, 168 ms in groups of 32 sorted by T0; Cantera serially
-10 ms. Batching does not amortise much on a CPU: a vmapped step costs about N single steps. On a
-GPU it does, and one vmap is the setting there (groups run one after the other; measured on an
-H200 against Cantera serially on its host: docs/chemistry.md, "On a GPU").
+expected difficulty then waste less (`IgnitionBatch.sorted_by`), on a CPU, where batching does
+not amortise much: a vmapped step costs about N single steps (`snapo bench kinetics --batch 256`;
+docs/chemistry.md, "Batched solves"). On a GPU it does, and one vmap is the setting there (groups
+run one after the other; docs/chemistry.md, "On a GPU").
 
 The reverse passes are vmapped too since the Rosenbrock solvers step a finished reactor (h = 0 in
 the loop's discarded steps) by one ulp instead of forming I / (gamma h) = inf: before, every
 gradient of a reactor that finished before the slowest was NaN, and the gradients ran one reactor
-at a time. Measured on h2o2 (4 reactors, 950-1100 K, to 0.27 ms, rtol 1e-10): one vmap 1.27 s,
-one at a time 2.37 s; the two agree to 2.5e-8 normwise (round-off through the ignition)."""
+at a time. Now one vmap is the faster, and agrees with one reactor at a time to round-off through
+the ignition (docs/chemistry.md, "Batched solves")."""
 
 from collections.abc import Callable, Mapping, Sequence
 from typing import NamedTuple

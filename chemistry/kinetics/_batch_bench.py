@@ -34,8 +34,9 @@ GROUP_SIZE = 32
 """Reactors per vmap in the grouped forward run (larger batches only), next to the one-vmap run:
 what grouping conditions sorted by T0 (alike step counts) saves."""
 GRADIENT_SAMPLE = 16
-"""Reactors (evenly spaced through the sorted batch) whose gradients are timed, as one vmap: 256
-gri30 reverse passes would take ~15 minutes, and their memory (a checkpoint a step) grows with N."""
+"""Reactors (evenly spaced through the sorted batch) whose gradients are timed, as one vmap: all
+256 gri30 reverse passes would take too long (docs/chemistry.md, Measurements behind the design),
+and their memory (a checkpoint a step) grows with N."""
 SINGLE_CHECKS = 3
 """Reactors (the first, middle and last of the sorted batch) also solved one at a time."""
 BUMP_CHECKS = 3
@@ -215,7 +216,8 @@ def benchmark_scaling(name: str, path, mechanism, case: IgnitionCase, sizes, end
     """One row per N in `sizes`: the per-reactor time of our batched forward solve (one vmap of N
     reactors, `batch_conditions`) and of Cantera run serially on the same N conditions, side by
     side: how batching amortises as N grows (on a GPU, until the device is full). Cantera runs
-    the N reactors once per size (N solves already; at N = 4096, ~25 s)."""
+    the N reactors once per size (N solves already, which take a while at large N:
+    docs/chemistry.md, Measurements behind the design)."""
     rows = []
     for size in tqdm(sizes, desc=f"{name} batch scaling", unit="size", disable=not sizes):
         batch = batch_conditions(mechanism, case, size)

@@ -9,8 +9,9 @@ read with the accuracy it bought.
 
 Rodas5 (Rosenbrock: one closed-form Jacobian and one LU a step) at the same rtol 1e-10 / atol
 1e-14, with a checkpoint at every step for the reverse pass. Kvaerno5 (ESDIRK, a Newton iteration
-per stage) was 4x slower forward and its reverse pass failed on gri30 (the root finder's implicit
-derivative on a rejected step, after ~20 minutes); docs/chemistry.md has those figures."""
+per stage) was the slower forward and its reverse pass failed on gri30 (the root finder's implicit
+derivative on a rejected step); docs/chemistry.md has those figures (Speed against Cantera, and
+Measurements behind the design)."""
 
 import pathlib
 import statistics
@@ -33,10 +34,11 @@ RTOL, ATOL = 1e-10, 1e-14
 SENSITIVITY_TOLERANCE = 1e-6
 """Cantera's sensitivity rtol and atol: where its h2o2 sensitivities agree with its own bumps."""
 MAX_STEPS = 4000
-"""Per solve (gri30 takes ~1,200 at these tolerances); also the reverse pass's checkpoints."""
+"""Per solve, well above what gri30 takes at these tolerances (docs/chemistry.md, Measurements
+behind the design); also the reverse pass's checkpoints."""
 REFERENCE_RTOL = 1e-13
-"""The converged reference's rtol (Rodas5, atol = rtol x 1e-4): h2o2's T moves 5e-11 relative from
-rtol 1e-12 to 1e-13."""
+"""The converged reference's rtol (Rodas5, atol = rtol x 1e-4): h2o2's T barely moves from
+rtol 1e-12 to 1e-13 (docs/chemistry.md, Measurements behind the design)."""
 CANTERA_SENSITIVITY_REPEATS = {"h2o2": 3, "gri30": 1}  # gri30 with 325 sensitivities: seconds a run
 
 

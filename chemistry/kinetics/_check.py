@@ -23,13 +23,13 @@ CONDENSED_TEMPERATURES = (280.0, 400.0)
 """Random-state temperature ranges [K]: a liquid mechanism's thermo is fitted near ambient."""
 _SENSITIVITY_SETTINGS = REACTOR_BDF_SOLVER.replace(rtol=1e-10, atol=1e-14)
 """The check's one reverse pass, through the BDF (`REACTOR_BDF_SOLVER`): here the trace and the
-compile are the wait, and the BDF's program is the smaller (measured in `snapo bench kinetics`,
-2026-11-26: h2o2's gradient compiled in 8 s against 14 s for Rodas5, gri30's in 11 s against
-20 s; run 19 ms against 55 ms, 0.23 s against 0.77 s). Its d ln T / d ln A differ from Rodas5's
-by 9.5e-5 (h2o2) and 5.6e-8 (gri30) normwise, far inside the check's 1e-3 against Cantera."""
+compile are the wait, and the BDF's program is the smaller, quicker to compile and to run
+(`snapo bench kinetics`). Its d ln T / d ln A differ from Rodas5's far inside the check's 1e-3
+against Cantera (the measurement: docs/chemistry.md, Measurements behind the design)."""
 _exported_sensitivities = exported(temperature_sensitivities, name="kinetics-temperature-sensitivities")
-"""The reverse pass, traced once and kept on disk (`snapo_ode.exported`): gri30's took ~46-68 s
-to trace and compile in every process."""
+"""The reverse pass, traced once and kept on disk (`snapo_ode.exported`): otherwise gri30's is
+traced and compiled again, at length, in every process (docs/chemistry.md, Measurements behind
+the design)."""
 
 
 def default_case(mechanism: Mechanism, path: str | Path) -> IgnitionCase | None:
@@ -104,7 +104,8 @@ def ignition_case(mechanism: Mechanism, path: str | Path, mixture: str | None, o
         return None
     if "sensitivity_time" not in overrides and overrides.keys() & {"temperature", "pressure"}:
         # The built-in case's time is late in its own induction; from another start the delay
-        # differs (h2o2 from 2000 K: 0.013 ms against 0.27 ms), and after ignition every
+        # differs (from 2000 K, h2o2 ignites long before it: docs/chemistry.md, Measurements
+        # behind the design), and after ignition every
         # d ln T / d ln A is ~0 (the equilibrium temperature does not depend on the rates), so
         # comparing them relatively compares noise. Take 0.9 x the delay instead.
         overrides = {**overrides, "sensitivity_time": float("nan")}

@@ -72,8 +72,8 @@ def ignition_delay(trajectory: Trajectory, initial_temperature, rise: float = IG
 
     low, high = jax.lax.fori_loop(0, iterations, halve, bracket)
     # On the float delay, not on the boolean `above`: under `snapo_ode.call_checked` a failed
-    # check is a NaN mark, which a boolean cannot carry (measured: the check vanished and the
-    # delay read 0).
+    # check is a NaN mark, which a boolean cannot carry (on the boolean, the check vanished and
+    # the delay read 0).
     return eqx.error_if(0.5 * (low + high), ~jnp.any(above), "the temperature never reaches T0 + rise: no "
                         "ignition before the last saved time; integrate longer or lower `rise`.")
 
@@ -120,8 +120,8 @@ def _ignition(mechanism: Mechanism, concentrations, temperature, times, settings
 _exported_ignition = exported(_ignition, name="kinetics-ignition")
 """Kept on disk traced (`snapo_ode.exported`) and run through `snapo_ode.call_checked`, whose
 runtime checks are NaN marks rather than host callbacks, so that the compilation cache keeps its
-executable: traced with callbacks it was compiled again in every process (4 s of a warm `snapo
-kinetics check h2o2.yaml`'s 9.6 s)."""
+executable: traced with callbacks it was compiled again in every process, a large share of a
+warm `snapo kinetics check h2o2.yaml` (docs/chemistry.md, Measurements behind the design)."""
 
 
 def trajectory_and_delay(reactor: Reactor, temperature, concentrations, times, settings: SolverSettings,

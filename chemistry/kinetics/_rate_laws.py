@@ -148,8 +148,8 @@ class Orders(eqx.Module):
     orders (explicit fractional or negative `orders`) use the power where c > 0 and are 0
     where c <= 0, as Cantera computes them (a negative order's factor would be infinite at 0),
     with finite derivatives everywhere. `fractional` says (statically) whether any slot has such an order: when
-    none has, the power is not computed at all (gri30: a general power on every slot was 40% of
-    a Rosenbrock step, measured).
+    none has, the power is not computed at all (on gri30 a general power on every slot was a
+    large share of a step: docs/chemistry.md, Speed against Cantera).
 
     Build with `Orders.of(index, order)`, which sets `fractional` from the orders."""
 
@@ -199,8 +199,9 @@ class Orders(eqx.Module):
         """sum_r,i,j changes[r, i] coefficients[r, j] e_{changed_species[r, i]} e_{index[r, j]}^T,
         shape `(n_species, n_species)`: the net stoichiometry times a matrix that is non-zero only
         at the slots, as one scatter of r x q x w entries (q species changed by a reaction, w
-        slots) rather than a dense n_species x r x n_species product (gri30: 150 us on this
-        CPU) or a scatter of whole stoichiometry rows (100 us)."""
+        slots) rather than a dense n_species x r x n_species product or a scatter of whole
+        stoichiometry rows, both slower on gri30 (docs/chemistry.md, Measurements behind the
+        design)."""
         jacobian = jnp.zeros((n_species + 1, n_species + 1), coefficients.dtype)
         jacobian = jacobian.at[changed_species[:, :, None], self.index[:, None, :]].add(
             changes[:, :, None] * coefficients[:, None, :])

@@ -60,8 +60,9 @@ def cantera_sensitivities(path: str | Path, case: IgnitionCase, time: float, *, 
     solution (d ln y / d ln p) with the multipliers at 1, which is exactly this quantity.
 
     The default tolerances matter: with atol 1e-20 and sensitivity tolerances 1e-8 (tighter,
-    one would think) Cantera's h2o2 sensitivities at 0.27 ms are off by 5-30% from central
-    bumps of Cantera's own solve; with these they agree with those bumps to ~1e-5."""
+    one would think) Cantera's h2o2 sensitivities at 0.27 ms are far off central bumps of
+    Cantera's own solve; with these they agree with those bumps (docs/chemistry.md, Measurements
+    behind the design)."""
     import cantera
 
     from ._crosscheck import cantera_solution

@@ -21,7 +21,8 @@ PRESSURES = (0.01 * ONE_ATM, 100.0 * ONE_ATM)
 """The sweep's random pressures [Pa]: 0.01 to 100 atm."""
 
 # A file's top-level `phases:` block, up to the next top-level key: listing the phases this way
-# takes milliseconds, where parsing every file whole takes ~30 s (n-hexane-NUIG-2015.yaml).
+# is quick, where parsing every file whole is slow (the large mechanisms, such as
+# n-hexane-NUIG-2015.yaml; docs/chemistry.md, Measurements behind the design).
 _PHASES_BLOCK = re.compile(r"^phases:[ \t]*\n(.*?)(?=^[A-Za-z_]|\Z)", re.S | re.M)
 
 

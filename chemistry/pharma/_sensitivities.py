@@ -69,7 +69,8 @@ def _values_and_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameter
 
 _exported_values_and_jacobian = exported(_values_and_jacobian, name="pharma-jacobian", compiler_options=QUICK_COMPILE)
 """The chain's Jacobian programs, compiled with `snapo_ode.QUICK_COMPILE`: a cold first process
-spends more on their compiles than on their runs (measured side by side: README)."""
+spends more on their compiles than on their runs (docs/architecture.md, Measurements behind the
+design)."""
 _exported_check = exported(_values_and_jacobian, name="pharma-jacobian-check", compiler_options=ONCE_COMPILE)
 """The same programs for a Jacobian a command computes once (a study's tight-tolerance
 reference), compiled with `snapo_ode.ONCE_COMPILE`: half the compile, twice the run."""
@@ -106,8 +107,8 @@ def prefetch_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameters: 
 def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mesh=None):
     """As `jacobian_function`, for many points at once: a function of a sequence of inputs ->
     a list of (CQAs (5,), Jacobian (5, n)) as NumPy arrays. Every point is dispatched before
-    any result is read, so that JAX runs one while Python dispatches the next (measured on 100
-    points: 16.6-17.9 ms a point against 18.1-25 ms read one by one). With a samples `mesh`,
+    any result is read, so that JAX runs one while Python dispatches the next (faster than
+    reading them one by one: docs/pharma.md, Measurements behind the design). With a samples `mesh`,
     the points go to this process's devices of it in turn; without, through the program on disk
     (`jacobian_function`). Not through `shard_map`: the reverse pass of equinox's checkpointed
     while loop refuses to run inside it ("Closure-converted function called with different
@@ -134,8 +135,8 @@ def resolve_mode(mode: str, n_inputs: int) -> str:
 
 def named_jacobian(chain: PharmaChain, inputs: ChainInputs, values, matrix, mode: str) -> Jacobian:
     """A `snapo_ode.Jacobian` of the CQAs over every input, its rows and columns named; its arrays
-    on the host (NumPy), so that picking columns compiles nothing (JAX's gathers did: ~0.5 s of a
-    cold `snapo pharma sensitivities`, after its last program)."""
+    on the host (NumPy), so that picking columns compiles nothing (JAX's gathers did, at the end
+    of a cold `snapo pharma sensitivities`: docs/pharma.md)."""
     _, rebuild = flatten_inputs(inputs)
     return Jacobian(np.asarray(values), np.asarray(matrix), mode, rebuild, tuple(input_names(chain)), CQA_NAMES)
 

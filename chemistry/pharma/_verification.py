@@ -69,7 +69,7 @@ def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, pat
     temperature = float(cpps.r1_temperature)
     liquid.TPX = temperature, cantera.one_atm, feed / feed.sum()
     # clone=False: in Cantera 3.2 a cloned ideal-condensed phase does not keep the state it was
-    # given (its density and composition change; measured), so each reactor gets its own Solution.
+    # given (its density and composition change), so each reactor gets its own Solution.
     reactor = cantera.ConstPressureReactor(liquid, energy="on" if chain.scene.has("energy_balance") else "off",
                                            clone=False)
     reactor.volume = 1.0

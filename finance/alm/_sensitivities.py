@@ -6,24 +6,25 @@ from snapo_ode import SAMPLES, sample_mean, spec
 
 from ._model import ALMProblem, objective
 
-# Rows (revaluations x paths) per vmapped chunk of bumps. Measured on a 2-core CPU at N = 100,
-# 128 paths, 120 months: one revaluation after another inside the compiled `lax.map` took 10 ms
-# each; vmapping 8, 32 or 128 of them 16-29 ms each; a Python loop over a jitted revaluation
-# 4.3 s for the 200 (its compile included). The paths already fill the vector units, so the fastest bump maps
-# sequentially once a revaluation has 128 paths, and vmaps small-path revaluations together.
+# Rows (revaluations x paths) per vmapped chunk of bumps. The paths already fill the vector
+# units, so the fastest bump maps sequentially inside the compiled `lax.map` once a revaluation
+# has 128 paths (vmapping several, or a Python loop over a jitted revaluation, was slower:
+# docs/alm.md, Sensitivities), and vmaps small-path revaluations together.
 BUMP_ROWS_PER_CHUNK = 128
-# Tangents share the primal computation in forward mode, so vmapping them pays (7 ms per
-# factor at 128 paths with 100 tangents per chunk, against 11 ms per forward evaluation).
+# Tangents share the primal computation in forward mode, so vmapping them pays: a factor's
+# tangent in a vmapped chunk costs less than a forward evaluation (docs/alm.md, Measurements
+# behind the design).
 FORWARD_ROWS_PER_CHUNK = 16384
 # Central differences on factors of order 1e-2 (rates, vols): a step of 1e-6 * max(|x|, 1)
-# keeps truncation error near 1e-9 and round-off near 1e-10 relative (measured against the
-# adjoint; the cube-root-of-epsilon default truncates at 1e-6 on the volatilities).
+# keeps both truncation error and round-off small against the adjoint, where the
+# cube-root-of-epsilon default's larger step truncates visibly on the volatilities (docs/alm.md,
+# Measurements behind the design).
 BUMP_RELATIVE_STEP = 1e-6
 PATHS_PER_CHUNK = 500
 """Paths per pass of the objective on a device, one chunk after another when it divides the
-device's paths (`snapo_ode.sample_mean`): measured on a 2-core CPU at N = 100, 10,000 paths, 120
-months, one reverse pass took 3.3 s unchunked and 2.7 s in chunks of 500 on one device, 1.35 s
-on two."""
+device's paths (`snapo_ode.sample_mean`): a chunk's working set stays in cache, so a reverse pass
+is faster than unchunked, on one device and on two (docs/alm.md, Measurements behind the
+design)."""
 PATH_SPECS = (spec(), spec(), spec(None, SAMPLES))
 """How three arguments, the last the shocks (months, paths, drivers), split over a samples mesh:
 the paths along the shocks' axis 1, the other two (factors, policy) replicated."""

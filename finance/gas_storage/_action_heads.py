@@ -101,7 +101,7 @@ def simulate_actions(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, *, 
         zeros = jnp.zeros_like(inputs.forward_curve)
         return simulate_path(policy, inputs, scene, inputs.forward_curve, zeros, sharpness=sharpness)
     prices, factor = spot_prices(inputs, shocks)
-    # Recomputing each day in the reverse pass beats storing every path's activations (measured
-    # 1.7x faster gradient at 1,000 paths).
+    # Recomputing each day in the reverse pass beats storing every path's activations (a faster
+    # gradient: docs/gas_storage.md, Measurements behind the design).
     return jax.vmap(lambda p, f: simulate_path(policy, inputs, scene, p, f, sharpness=sharpness, remat=True))(
         prices, factor)

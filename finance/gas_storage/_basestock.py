@@ -34,7 +34,7 @@ from ._model import (
     spot_prices,
 )
 
-BASESTOCK_HARMONICS = 4  # the B&dJ targets vary over the season, not week to week (measured)
+BASESTOCK_HARMONICS = 4  # the B&dJ targets vary over the season, not week to week
 # Targets span the floor-to-ceiling range extended by this fraction on each side, so that the
 # logistic output reaches the bounds exactly (the clip then saturates: full injection or
 # withdrawal) with finite logits.
@@ -69,7 +69,7 @@ class BasestockPolicy(eqx.Module):
     computes from the day's calendar features: the MLP runs on the T days only, and each path
     and day costs a polynomial (for a one-factor spot, the day and x are the whole price state).
     With `degree` None the MLP reads the calendar features, x and the standardised log spot
-    of every path and day (general, and slower: measured in docs).
+    of every path and day (general, and slower: docs/gas_storage.md).
 
     **Fields:** `mlp` (tanh); `warm_start`: per-day mid-point logits, shape (T,), not trained
     (the intrinsic LP's inventory path, so that the untrained policy follows the intrinsic
@@ -98,8 +98,9 @@ class BasestockPolicy(eqx.Module):
         coefficients = coefficients.at[:, :, 0].add(start)
         if log_spot_ratio is None:
             return coefficients[:, :, 0]
-        # Horner's rule, elementwise over (paths, T): ~10x faster than a batched contraction of
-        # the powers with the coefficients (measured, 1,024 paths, gradient included).
+        # Horner's rule, elementwise over (paths, T): faster than a batched contraction of the
+        # powers with the coefficients, gradient included (docs/gas_storage.md, Measurements
+        # behind the design).
         x = log_spot_ratio / scale
         logits = []
         for output in range(2):
@@ -230,8 +231,9 @@ def simulate_basestock(policy: BasestockPolicy, inputs: StorageInputs, scene: Sc
 
     # Only the inventory is carried through the loop; the flows and cash follow from its daily
     # changes in one vectorised pass (the net flow is exactly the change, smooth or hard).
-    # With hard constraints, recomputing each day in the reverse pass is ~6x faster than storing
-    # it (10,000 paths); with smooth ones the transcendental functions make recomputing dearer.
+    # With hard constraints, recomputing each day in the reverse pass is faster than storing it
+    # (docs/gas_storage.md, Measurements behind the design); with smooth ones the transcendental
+    # functions make recomputing dearer.
     inventory = jnp.moveaxis(rollout(step, start, inputs.n_days, per_step=(low_t, high_t, floor[1:]),
                                      remat=sharpness is None), 0, -1)
     net = jnp.diff(inventory, axis=-1)

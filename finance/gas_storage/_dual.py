@@ -148,9 +148,9 @@ def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, 
     smallest relaxation whose work (levels x moves x `paths` x days) stays within `work` (the
     fewest levels among equals; 101 at least): 101 levels on B&dJ, whose rates are whole steps of
     2,500 MWh. Where rates are not whole steps the relaxation shrinks only as 1 / levels while the
-    work grows as levels^2 (measured on a 90-day facility with ratchets and fuel loss: 9% at 401
-    levels, 3% at 1,201), so such a bound is valid but loose by about that share of the rates'
-    value: `RelaxedGrid.relaxation` says by how much the rates were raised.
+    work grows as levels^2 (docs/gas_storage.md has the figures for a ratcheted facility), so
+    such a bound is valid but loose by about the relaxation's share of the rates' value:
+    `RelaxedGrid.relaxation` says by how much the rates were raised.
 
     **Raises:** `InputError` for fewer than 2 nodes.
     """

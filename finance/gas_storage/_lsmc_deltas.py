@@ -1,9 +1,8 @@
 """Forward-curve deltas of the LSMC valuation: pathwise (one reverse pass, the fitted decision rule
 frozen) and by central bumps of the whole valuation (refit and revalue per bump).
 
-Measured on B&dJ (10,000 + 10,000 paths, 101 nodes, a loaded 2-core machine): value and all 365
-deltas 1.5-1.7 s, the same as one out-of-sample run (1.5 s); 730 refitted bumps would take
-730 x (fit + run) = 1.3-2.5 hours.
+The pathwise value and all deltas cost about one out-of-sample run, where refitted bumps cost a
+fit and a run per bump, two per day (docs/gas_storage.md, LSMC deltas, has the timings).
 
 Pathwise: with the fit frozen, the out-of-sample value is the mean over paths of
 sum_t cash_t(a_t, S_t) with S_t = F_t exp(f_t) (f the spot factor, independent of F), and the
@@ -12,10 +11,9 @@ d cash_t / d S_t, the decisions held. That is the exact derivative of the refitt
 wherever no decision sits on a tie: central bumps below the smallest decision margin (relative
 step 1e-9) agree to round-off on every day (tested). Larger bumps move decisions, in the fit and
 in the run; for an optimal rule their first-order effect is zero (envelope theorem), for LSMC's
-it is not: on B&dJ at high volatility, bumps of 1% differ from the pathwise deltas by 100-800 on
-deltas of 600-1,700 (days 30-300), and on a 40-day case systematically by ~+300 a day (8
-replications, t up to 7). Against the deltas of a near-optimal rule (the factor lattice's, same
-paths), LSMC's pathwise deltas differ by 4-5% RMS (6-8% at the worst day).
+it is not: larger refitted bumps differ from the pathwise deltas, systematically on a short case,
+and LSMC's pathwise deltas differ by a few percent from those of a near-optimal rule (the factor
+lattice's, same paths); docs/gas_storage.md, LSMC deltas, has the figures.
 """
 
 import equinox as eqx

@@ -150,7 +150,8 @@ def _penalty_regression(predictable, features, target):
     """The coefficients of `features` (paths, Q) in the least-squares fit of `target` (paths, N)
     on [predictable, features]: normal equations of unit-RMS columns with a ridge of 1e-10 (the
     columns differ in scale by orders of magnitude and can be collinear, e.g. on day 0 where
-    every path has the same spot; JAX's SVD `lstsq` took 3x the rest of a day's work). A feature
+    every path has the same spot; JAX's SVD `lstsq` cost more than the rest of a day's work:
+    docs/gas_storage.md, Measurements behind the design). A feature
     that barely varies on these paths (std below 1e-8 of the largest, such as a far
     out-of-the-money call early on, whose payoff no fitting path sees) gets coefficient 0: fitted,
     its huge coefficient would make the penalty's sample mean on other paths heavy-tailed."""
@@ -208,8 +209,7 @@ def fit_penalty(fit: LSMCFit, inputs: StorageInputs, scene: Scene, grid: Invento
     shape (paths, T) [$/MMBtu]: the LSMC's fitting paths or others, never the evaluation paths.
     The LSMC's decisions are replayed backward with `fit` frozen (on the fitting paths this
     reproduces `fit_lsmc`'s realised values exactly). `target`: see the module docstring
-    ("fitted" measured tighter: with `SpotPowers(3)` on B&dJ at high volatility, 10,000 paths, the
-    LSMC's gap is 0.65% against 0.90% with "realised").
+    ("fitted" gives the tighter bound: docs/gas_storage.md, the LSMC-penalty attempts).
 
     **Raises:** `InputError` for a degree outside [0, 12]; `ValueError` for an unknown `target`.
     """

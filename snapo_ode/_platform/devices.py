@@ -179,8 +179,8 @@ def sample_mean(fn: Callable, mesh: Mesh | None, in_specs, *, chunk: int | None 
     all-reduce of the devices' cotangents.
 
     `chunk`: samples per call of `fn` on a device, one chunk after another (`lax.map`), when it
-    divides the device's share: a working set that stays in cache (ALM's reverse pass over 10,000
-    paths ran 1.2x faster on one CPU device in chunks of 500, and twice as fast on two).
+    divides the device's share: a working set that stays in cache, faster on one device and more
+    so on several (ALM's reverse pass: docs/architecture.md, Measurements behind the design).
     Without a mesh, `fn` itself, or chunked on the one device."""
     if chunk is not None:
         fn = _in_chunks(fn, in_specs, chunk)

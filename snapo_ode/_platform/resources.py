@@ -55,10 +55,11 @@ def relieve_mappings(fraction: float = MAPPINGS_FRACTION) -> bool:
     `fraction` of the kernel's memory-mapping limit; returns whether it did.
 
     Why: every program XLA compiles for the CPU stays mapped while JAX's caches hold it, in
-    ~1,700 mappings for one stiff ignition solve and its gradient (jaxlib 0.10.2, measured), and
-    nothing else frees it. A process that compiles a few dozen such programs (a bench across
-    tolerances, a test worker) reaches Linux's default limit of 65,530 mappings, and XLA then dies
-    in its compiler ("LLVM ERROR: Unable to allocate section memory", or a segmentation fault).
+    over a thousand mappings for one stiff ignition solve and its gradient (docs/architecture.md
+    gives the count), and nothing else frees it. A process that compiles a few dozen such programs
+    (a bench across tolerances, a test worker) reaches Linux's default limit of 65,530 mappings,
+    and XLA then dies in its compiler ("LLVM ERROR: Unable to allocate section memory", or a
+    segmentation fault).
     After the drop, a program used again is compiled again, or read from the persistent cache."""
     counts = memory_mappings()
     if counts is None or counts[0] <= fraction * counts[1]:
@@ -72,8 +73,8 @@ def relieve_mappings(fraction: float = MAPPINGS_FRACTION) -> bool:
 def relieve_mappings_after_compiles() -> bool:
     """`relieve_mappings()` when JAX has made an executable (compiled, or read from the
     persistent cache) since the last such call, else nothing: the form for hot paths (`call_checked`, `time_function`). Mappings grow only with
-    compiles, and reading /proc/self/maps costs ~25 ms at 20,000 mappings, which a check on every
-    call would add to every timed solve."""
+    compiles, and reading /proc/self/maps takes long enough at tens of thousands of mappings
+    (docs/architecture.md) that a check on every call would add it to every timed solve."""
     global _compiled_since_check, _listening
     if not _listening:
         import jax

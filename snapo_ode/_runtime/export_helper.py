@@ -1,15 +1,15 @@
 """Trace, export and compile an `ExportedProgram` entry in a helper process.
 
-Tracing is Python and holds the interpreter lock: a first process that must trace several
-programs traces them one after another, however many cores it has (the pharma study's adjoint,
-bumps and reference: 19.5 s of tracing in a row, of a 35 s cold run on 2 cores). A helper
-process traces one of them alongside, writes its entry (`snapo_ode.exported`) and compiles it,
-so its executable lands in the persistent compilation cache; the caller then reads both as it
+Tracing is Python and holds the interpreter lock: a first process that must trace several programs
+traces them one after another, however many cores it has (the pharma study's adjoint, bumps and
+reference: most of a cold run's time; docs/architecture.md, Measurements behind the design). A
+helper process traces one of them alongside, writes its entry (`snapo_ode.exported`) and compiles
+it, so its executable lands in the persistent compilation cache; the caller then reads both as it
 would in a second process. What the helper is sent: where the program is defined (a module
 attribute: the helper imports it, so the program and its key are the caller's), the arguments
-(pickled), the entry's path, the cache directory and the runtime-check and matmul-precision
-modes the caller traces under. The helper recomputes the entry's key from what it received, and
-writes nothing if it differs (exit 3): the caller then traces as it would have.
+(pickled), the entry's path, the cache directory and the runtime-check and matmul-precision modes
+the caller traces under. The helper recomputes the entry's key from what it received, and writes
+nothing if it differs (exit 3): the caller then traces as it would have.
 """
 
 import atexit
@@ -24,13 +24,15 @@ MISMATCH = 3
 UNEXPORTABLE = 4
 """The helper's exit code when the program cannot be exported (the caller then jits it)."""
 TIMEOUT = 900.0
-"""Seconds a caller waits for a helper before it kills it and traces the program itself (a
-gri30 gradient's trace and compile take ~1 minute on 2 cores)."""
+"""Seconds a caller waits for a helper before it kills it and traces the program itself: far
+above the longest trace and compile a helper does (a gri30 gradient's), so that only a helper
+that hangs is killed."""
 
 NICENESS = 10
 """The helpers' scheduling priority below the caller's (Unix `nice`): the caller's own trace and
-compile are the critical path, and a helper takes what they leave of the cores (measured: a cold
-`snapo pharma sensitivities` on 2 cores 24.5-24.9 s with it, 26.0-27.0 s without)."""
+compile are the critical path, and a helper takes what they leave of the cores (a cold `snapo
+pharma sensitivities` is the shorter for it: docs/architecture.md, Measurements behind the
+design)."""
 
 _RUNNING: list[subprocess.Popen] = []
 
@@ -120,7 +122,7 @@ if __name__ == "__main__":
     code = main()
     # Its outputs are on disk (the entry written atomically, the executable in the compilation
     # cache): it exits without the interpreter's and JAX's teardown, which the caller would wait
-    # for (measured: ~0.5-1 s between a helper's last compile and its caller reading the program).
+    # for, between a helper's last compile and its caller reading the program.
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)

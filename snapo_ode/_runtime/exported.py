@@ -1,11 +1,12 @@
 """Traced and lowered programs kept on disk, so that a second process neither traces nor compiles.
 
 JAX's persistent compilation cache (`snapo_ode.configure`) stores XLA executables, but a new
-process must still trace and lower a program before it can look the executable up: ~24 s of
-Python for the pharma chain's Jacobian, every process. `exported(fn, name=...)` serialises the
-lowered program (`jax.export`) into `<compilation cache dir>/exported/` and, in the next process,
-deserialises it instead of tracing `fn`; its XLA compile then hits the persistent cache.
-`ExportedProgram.prefetch` does either ahead of the call, the reading and the compile in a
+process must still trace and lower a program before it can look the executable up, which for a
+large program (the pharma chain's Jacobian) costs many times the reading of its executable (the
+measurement: docs/architecture.md, Measurements behind the design). `exported(fn, name=...)`
+serialises the lowered program (`jax.export`) into `<compilation cache dir>/exported/` and, in the
+next process, deserialises it instead of tracing `fn`; its XLA compile then hits the persistent
+cache. `ExportedProgram.prefetch` does either ahead of the call, the reading and the compile in a
 background thread, so that a command's several programs load in parallel; with `elsewhere`, a
 missing entry is traced by a helper process (`snapo_ode._runtime.export_helper`), so that a first
 process's several traces run side by side too.
@@ -53,20 +54,15 @@ _MAGIC = b"snapo-exported 2\n"
 QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 1}
 """XLA options for a program whose compiles cost more than its runs: on a CPU, XLA's elemental
 emitters instead of its fusion emitters, and LLVM's optimisation at level 1 (of 3; XLA's default
-2). Measured (2-core CPU, 2026-11-26, each compile in a new process): the pharma chain's adjoint
-15.7 -> 9.5 CPU-s with the elemental emitters, its reference 9.0 -> 4.9, its bumps 5.9 -> 4.7,
-with the same run times (`snapo bench pharma` side by side); then level 1 against 2, compiled
-and run side by side in one process (60 runs each): the adjoint over every input 8.9 -> 7.7
-CPU-s, run 11.7 / 11.5 ms (medians), over the 4 CPPs 9.0 -> 7.4 CPU-s, 13.9 / 14.1 ms, values
-equal to 6e-14. The kinetics gradients ran 24-40% slower with the elemental emitters (`snapo
-bench kinetics`), so the options are chosen per program, not made the default."""
+2). Both cut the pharma chain's compiles at the same run times and values to round-off, but the
+kinetics gradients ran slower with the elemental emitters, so the options are chosen per
+program, not made the default (the measurement: docs/architecture.md, Measurements behind the
+design)."""
 ONCE_COMPILE = {**QUICK_COMPILE, "xla_backend_optimization_level": 0}
 """XLA options for a program a command runs once (a check: a reference, central differences):
-`QUICK_COMPILE` with LLVM's optimisation off. Measured (2-core CPU, 2026-11-26, each compile in a
-new process, side by side against the elemental emitters at level 2): the pharma reference's
-compile 5.0 -> 2.9 CPU-s and its run 0.13 -> 0.27 s; the bumps' 4.9 -> 2.2 CPU-s and their run
-0.17 -> 0.41 s; the adjoint's 10.1 -> 5.2 CPU-s, but its run 11.9 -> 22.8 ms, so a
-program that is timed or run many times keeps `QUICK_COMPILE`."""
+`QUICK_COMPILE` with LLVM's optimisation off: a shorter compile for a slower run, which pays only
+for a program run once, so a program that is timed or run many times keeps `QUICK_COMPILE` (the
+measurement: docs/architecture.md, Measurements behind the design)."""
 
 _LOADED: dict[pathlib.Path, Callable] = {}  # entry -> jitted call of the deserialised program
 _PREFETCHED: dict[pathlib.Path, concurrent.futures.Future] = {}  # entry -> its reading, under way
@@ -142,10 +138,10 @@ class ExportedProgram:
             return None
 
     def _path(self, args, every, structure) -> pathlib.Path | None:
-        # Describing a model's every leaf costs milliseconds (~4 ms a call of the pharma chain's
-        # Jacobian: 3 s of a design space's 801 points): a call with the same structure, arrays
-        # of the same dtypes and shapes (all that `describe` reads of an argument's array) and
-        # the very same other leaves (immutable) reuses its entry.
+        # Describing a model's every leaf is slow enough to add up over a design space's points
+        # (docs/architecture.md, Measurements behind the design): a call with the same structure,
+        # arrays of the same dtypes and shapes (all that `describe` reads of an argument's array)
+        # and the very same other leaves (immutable) reuses its entry.
         settings = (jax.config.jax_enable_x64, str(jax.config.jax_default_matmul_precision),
                     getattr(equinox_errors, "EQX_ON_ERROR", None), jax.config.jax_compilation_cache_dir)
         leaves = tuple((str(leaf.dtype), np.shape(leaf), bool(getattr(leaf, "weak_type", False)))
@@ -210,7 +206,7 @@ class ExportedProgram:
     def prefetch(self, *args, elsewhere: bool = False) -> bool:
         """Prepare the program for `args` ahead of its call, so that the call finds it compiled:
         an entry on disk is read, and its executable from the compilation cache, in a background
-        thread (a warm chain's programs take ~0.2-1.2 s each to read; several prefetched
+        thread (each program takes a while to read; several prefetched
         together read in parallel while the first runs); a missing entry is traced and written
         here, in the caller's thread, and compiled in the background while the caller traces
         the next. With `elsewhere`, a missing entry is traced, written and compiled by a helper
