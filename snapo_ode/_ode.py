@@ -2,9 +2,10 @@
 returning NaNs or a truncated solution, and a stiff model refuses `BacksolveAdjoint`.
 
 A failed solve is an `equinox.error_if` inside the program. That is a host callback, and JAX's
-persistent compilation cache never stores a program that holds one (measured with jax 0.10.2);
-nor does it store a derivative through an implicit solver, whose linear solves lineax checks the
-same way (measured: the pharma chain's Jacobian was compiled again, 22 s, in every process).
+persistent compilation cache never stores a program that holds one (as of jax 0.10.2); nor does
+it store a derivative through an implicit solver, whose linear solves lineax checks the same way
+(the pharma chain's Jacobian was compiled again in every process: docs/architecture.md,
+Measurements behind the design).
 `call_checked` traces a jitted function with every such check as a NaN mark and raises on the
 host instead, so its program is cached; entry points that compile their own programs (CLI
 verbs, studies, benchmarks) call through it.
@@ -18,7 +19,6 @@ import diffrax
 import equinox as eqx
 import equinox._errors as equinox_errors
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ._platform.devices import to_host
@@ -26,14 +26,26 @@ from ._platform.resources import relieve_mappings_after_compiles
 from ._jaxpr import equations
 from ._platform.validation import InputError
 
-_FAILURE_MESSAGES = (
-    "the ODE solve reached max_steps before t1: raise max_steps, loosen rtol/atol, or check the "
-    "state scaling (atol applies to every scaled component); on a stiff model after a fast "
-    "transient, a chord root finder (VeryChord) often succeeds where Newton stalls.",
-    "the ODE solve failed (step size collapsed, or the implicit solve did not converge or met a "
-    "singular Jacobian): loosen rtol/atol, try the other root finder, or check the model for "
-    "NaN or negative states.",
-)
+class SolveResult(eqx.Enumeration):
+    """How an ODE solve ended, each failure with its advice (diffrax's `RESULTS` style): what
+    `diffeqsolve_checked` makes of Diffrax's result and what `snapo_ode._solver.bdf` returns.
+    Inside a program a failure is an `equinox.error_if` with the advice as its message."""
+
+    successful = ""
+    max_steps_reached = (
+        "the ODE solve reached max_steps before t1: raise max_steps, loosen rtol/atol, or check the "
+        "state scaling (atol applies to every scaled component); on a stiff model after a fast "
+        "transient, a chord root finder (VeryChord) often succeeds where Newton stalls.")
+    failed = (
+        "the ODE solve failed (step size collapsed, or the implicit solve did not converge or met a "
+        "singular Jacobian): loosen rtol/atol, try the other root finder, or check the model for "
+        "NaN or negative states.")
+    times_out_of_range = (
+        "the ODE solve's times are out of order: t1 must exceed t0 and every output time lie within "
+        "[t0, t1] (the solver integrates forward); pass increasing times.")
+
+
+_FAILURE_MESSAGES = (SolveResult[SolveResult.max_steps_reached], SolveResult[SolveResult.failed])
 
 
 class SolverFailed(RuntimeError):
@@ -88,7 +100,7 @@ def _runtime_checks_as_nan():
     # instead of a host callback. Set only while tracing our own programs, then restored.
     # JAX caches traces by function, arguments and its trace context, not by this global, so
     # the mode must also change the trace context: otherwise a trace made in one mode is reused
-    # in the other (measured: a plain call after a checked one returned NaN without raising).
+    # in the other (a plain call after a checked one then returns NaN without raising).
     # The matmul precision is part of that context; "highest" is what float64 on a CPU computes
     # anyway.
     previous = equinox_errors.EQX_ON_ERROR
@@ -153,12 +165,14 @@ def diffeqsolve_checked(terms, solver, t0, t1, dt0, y0, args=None, *, stiff: boo
             "diffrax.ForwardMode() for forward-mode Jacobians with few inputs."
         )
     solution = diffrax.diffeqsolve(terms, solver, t0, t1, dt0, y0, args, throw=False, **kwargs)
-    ys = checked_ys(solution.ys, solution.result != diffrax.RESULTS.successful,
-                    solution.result == diffrax.RESULTS.max_steps_reached)
-    return eqx.tree_at(lambda s: s.ys, solution, ys)
+    result = SolveResult.where(
+        solution.result == diffrax.RESULTS.successful, SolveResult.successful,
+        SolveResult.where(solution.result == diffrax.RESULTS.max_steps_reached, SolveResult.max_steps_reached,
+                          SolveResult.failed))
+    return eqx.tree_at(lambda s: s.ys, solution, checked_ys(solution.ys, result))
 
 
-def checked_ys(ys, failed, max_steps_reached):
-    """`ys` behind an `equinox.error_if` that raises with advice where `failed` (a traced bool):
-    the max_steps advice where `max_steps_reached`, else the one for a collapsed step."""
-    return eqx.branched_error_if(ys, failed, jnp.where(max_steps_reached, 0, 1), _FAILURE_MESSAGES)
+def checked_ys(ys, result: SolveResult):
+    """`ys` behind an `equinox.error_if` that raises with `result`'s advice unless it is
+    `SolveResult.successful` (a traced result)."""
+    return result.error_if(ys, result != SolveResult.successful)

@@ -6,6 +6,7 @@ about 300 lines; and `snapo --help` imports no JAX."""
 import ast
 import json
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -80,6 +81,32 @@ def test_the_core_rooms_import_only_downwards(graph):
         for target in graph[name]:
             if target != "snapo_ode":
                 assert _room(target) <= _room(name), f"{name} imports {target}, a room above its own"
+
+
+# The CLI layer: the only modules that see argparse namespaces; past it, requests are typed
+# (settings objects and keyword arguments).
+CLI_LAYER = ("snapo_ode.cli", "snapo_ode._runtime.options", "snapo_ode._runtime.apart",
+             "snapo_ode._runtime.first_result")
+
+
+def test_argparse_namespaces_stay_in_the_cli_layer():
+    for name, path in _modules().items():
+        in_cli = name in CLI_LAYER or name.rpartition(".")[2] == "_cli"
+        if not in_cli:
+            tree = ast.parse(path.read_text())
+            imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+            assert "argparse" not in imported and "Namespace" not in path.read_text(), name
+
+
+# A figure in a docstring or comment goes stale where nobody looks: measurements live in the docs
+# pages ("Measurements behind the design") and the bench outputs they come from (issue 34, item 4).
+LAB_NOTE = re.compile(r"(?i)measured[^.\n]*\d|\d+(\.\d+)?x (faster|slower)|\d+% (faster|slower)")
+
+
+def test_docstrings_and_comments_carry_no_measurements():
+    for name, path in _modules().items():
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            assert not LAB_NOTE.search(line), f"{name}:{number}: a measurement belongs in the docs: {line.strip()}"
 
 
 def test_no_import_cycles(graph):

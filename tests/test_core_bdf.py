@@ -130,7 +130,7 @@ def test_bdf_batch_equals_single_solves():
 def test_bdf_refuses_backsolve_and_dense_output_before_any_compile():
     with pytest.raises(InputError, match="differentiation = 'backsolve'"):
         solve_robertson(0.0, BDF.replace(differentiation="backsolve"))
-    with pytest.raises(InputError, match="'bdf' saves at t1 or at given ts only"):
+    with pytest.raises(InputError, match="BDF saves at t1 or at given ts only"):
         BDF.solve(robertson, 0.0, 1.0, jnp.array([1.0, 0.0, 0.0]), 0.0, saveat=diffrax.SaveAt(t1=True, dense=True))
     with pytest.raises(InputError, match="not a Diffrax method"):
         BDF.method()

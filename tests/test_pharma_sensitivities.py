@@ -113,5 +113,5 @@ def test_the_reference_agrees_with_the_bdf_on_the_stiff_units(inputs):
     errors the study reports (~1e-7)."""
     ours, theirs = (np.asarray(jacobian_function(PharmaChain(solver=solver), False, "forward")(inputs)[1])
                     for solver in (REFERENCE, REFERENCE.replace(solver="bdf")))
-    assert REFERENCE.solver == "kvaerno5" and REFERENCE.nonstiff_solver == "kvaerno5"
+    assert snapo_ode.solver_name(REFERENCE.solver) == snapo_ode.solver_name(REFERENCE.nonstiff_solver) == "kvaerno5"
     assert snapo_ode.agreement(ours, theirs).max_rel_diff <= 5e-9

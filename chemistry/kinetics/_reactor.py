@@ -14,7 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import EffectCatalogue, InputError, Scene, SolverSettings, check_choice, check_increasing, check_range
+from snapo_ode import (
+    BDF, EffectCatalogue, InputError, Rodas5, Scene, SolverSettings, check_choice, check_increasing, check_range)
 
 from ._mechanism import Mechanism
 from ._rate_laws import RateParameters
@@ -34,26 +35,25 @@ REACTOR_EFFECTS = EffectCatalogue(
 ReactorKind = Literal["constant-volume", "constant-pressure"]
 
 
-REACTOR_SOLVER = SolverSettings(atol=1e-11, root_finder="chord", solver="rodas5", unroll_stages=True)
+REACTOR_SOLVER = SolverSettings(atol=1e-11, solver=Rodas5(unroll_stages=True))
 """The reactors' default `snapo_ode.SolverSettings`: Rodas5 at rtol 1e-8 / atol 1e-11 on the
-scaled state [T / T0, N_k / N_total0], 20,000 steps at most; for Kvaerno5, the chord root finder
-(Newton takes fewer steps before an ignition but stalls after the front). Rodas5 rather than
-Rodas4: h2o2 ignition to 0.27 ms at rtol 1e-10 takes it 201 + 38 steps against 649 + 41, and ends
-nearer the converged temperature (6e-6 K off against 1.3e-5 K); 5x faster. Its stages unrolled
+scaled state [T / T0, N_k / N_total0], 20,000 steps at most. Rodas5 rather than
+Rodas4: on an h2o2 ignition it takes far fewer steps, runs faster and ends nearer the converged
+temperature (docs/chemistry.md, Measurements behind the design). Its stages unrolled
 (`unroll_stages`): reactors run in sweeps and benchmarks against Cantera, where the run counts,
-and there the stage loop's reverse pass was the slower (the h2o2 gradient: measured in
-`snapo_ode._solver.rosenbrock.AbstractRosenbrock`)."""
+and there the stage loop's reverse pass was the slower (the h2o2 gradient: docs/decisions.md,
+Rosenbrock stages in a loop)."""
 
 
-REACTOR_BDF_SOLVER = REACTOR_SOLVER.replace(solver="bdf")
+REACTOR_BDF_SOLVER = REACTOR_SOLVER.replace(solver=BDF())
 """The reactors' settings with `snapo_ode`'s BDF ("bdf") in place of Rodas5: a Newton iteration
 that reuses its Jacobian and factorisation across steps (CVODES's design) instead of a Jacobian,
 an LU and 8 evaluations a step. At the kinetics benchmark's rtol 1e-10 / atol 1e-14
-(`snapo bench kinetics`, README) it runs h2o2 and gri30 ignitions 2-5x faster than Rodas5, and
-their gradients (one reverse pass, the corrector differentiated implicitly) 3-7x faster, within
-the tolerance's reach of the converged temperature (h2o2: 6e-7 relative, dominated by atol, where
-Rodas5 is 6e-9 off and Cantera 3e-6: its error follows atol more than Rodas5's, so tighten atol
-with it). It saves at given times only (no dense output, so not for `ignition_delay`);
+(`snapo bench kinetics`) it runs h2o2 and gri30 ignitions faster than Rodas5, and their gradients
+(one reverse pass, the corrector differentiated implicitly) by a larger factor, within the
+tolerance's reach of the converged temperature but less close than Rodas5 (docs/chemistry.md,
+Measurements behind the design): its error follows atol more than Rodas5's, so tighten atol with it. It saves at given
+times only (no dense output, so not for `ignition_delay`);
 `REACTOR_SOLVER` stays the default."""
 
 
@@ -222,9 +222,9 @@ def scaled_problem(reactor: Reactor, temperature, concentrations, volume=1.0,
         # meaning: T <= 0 (log T is NaN), T far above the thermo fits (the rates or equilibrium
         # constants overflow to inf) or NaN from an earlier stage. There the field is NaN, which
         # rejects the step, and it is evaluated at the initial state, so that the reverse pass
-        # through the rejected step meets no 0 * NaN or 0 * inf (measured: Rodas5's first trial
-        # step of a gri30 ignition, the whole interval, made every gradient NaN; trial states
-        # between 14,500 and 72,500 K made half the gradients of a batch from 1450-1500 K NaN).
+        # through the rejected step meets no 0 * NaN or 0 * inf (without it, Rodas5's first trial
+        # step of a gri30 ignition, the whole interval, made every gradient NaN, and trial states
+        # far above the fits made gradients of a batch NaN: docs/chemistry.md, On a GPU).
         valid = jnp.isfinite(jnp.sum(state))
         if energy:
             valid = valid & (state[0] > 0.0) & (state[0] < ceiling)

@@ -11,7 +11,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._cqa": ("cqa_dict", "cqa_vector", "meets_specs", "spec_margins", "spec_penalty"),
     "._crystallizer": ("CoolingCrystallizer", "Crystallizer", "CrystallizerOutlet", "EquilibriumIsolation", "Slurry",
                        "SpeciesRoles", "solubility"),
-    "._design_space": ("DesignSpace", "default_uncertain", "design_space"),
+    "._design_space": ("DesignSpace", "DesignSpaceSettings", "default_uncertain", "design_space"),
     "._dryer": ("Dryer", "DryerOutlet"),
     "._filter": ("Filter",),
     "._liquid": ("HoldReactor", "LiquidBatch", "SynthesisReactor", "TEMPERATURE_SCALE"),

@@ -9,11 +9,11 @@ import equinox as eqx
 import numpy as np
 
 from snapo_ode import (
-    AccuracyStudy, Panel, Point, agreement, call_checked, compare_with_bumps, compiled_temp_bytes, time_function,
-    timed_point)
+    AccuracyStudy, Panel, Point, Rodas4, agreement, call_checked, compare_with_bumps, compiled_temp_bytes,
+    time_function, timed_point)
 
 from ..kinetics._gradient_accuracy import ignition_gradient_panel
-from ._chain import CHAIN_SOLVER, PharmaChain
+from ._chain import CHAIN_SOLVER, PharmaChain, chain_method
 from ._cqa import cqa_vector
 from ._parameters import make_cpps
 from ._sensitivities import _values_and_jacobian, cpp_only, jacobian_function
@@ -54,11 +54,12 @@ def chain_solver_panel(rtols, repeats: int) -> Panel:
 
     reference = np.asarray(call_checked(simulation(base.with_solver(REFERENCE)), inputs))
     rodas_check = np.asarray(call_checked(simulation(base.with_solver(REFERENCE.replace(
-        solver="rodas4", nonstiff_solver="rodas4"))), inputs))
+        solver=Rodas4(), nonstiff_solver=Rodas4()))), inputs))
     points = []
     for rtol in rtols:
         for method, solvers in CHAIN_SOLVERS.items():
-            fn = simulation(base.with_solver(CHAIN_SOLVER.replace(rtol=rtol, atol=rtol / 100, **solvers)))
+            methods = {field: chain_method(name, field) for field, name in solvers.items()}
+            fn = simulation(base.with_solver(CHAIN_SOLVER.replace(rtol=rtol, atol=rtol / 100, **methods)))
             points.append(timed_point(method, f"rtol={rtol:g}", fn, inputs,
                                       lambda cqas: agreement(np.asarray(cqas), reference).max_rel_diff, repeats))
     return Panel("stiff_pharma_chain", "Pharma chain (R1, R2, crystallizer, dryer): the five CQAs",

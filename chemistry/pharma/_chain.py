@@ -7,13 +7,15 @@ import dataclasses
 from pathlib import Path
 from typing import NamedTuple
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 
 from chemistry import MECHANISMS, Mechanism, RateParameters
-from snapo_ode import EffectCatalogue, InputError, Scene, SolverSettings
+from snapo_ode import EffectCatalogue, InputError, Scene, Solver, SolverSettings, solver_from_name
 
 from ..kinetics._types import Scalar, Vector
 from ._crystallizer import (
@@ -42,14 +44,30 @@ PHARMA_EFFECTS = EffectCatalogue(
 DEFAULT_MECHANISM = MECHANISMS / "pharma.yaml"
 
 
-CHAIN_SOLVER = SolverSettings(solver="rodas5", max_steps=4096, root_rtol=1e-6, root_atol=1e-9)
+STAGE_ROOT_FINDER = optx.Newton(rtol=1e-6, atol=1e-9)
+"""How the chain's ESDIRK methods (Kvaerno) solve their stage equations: Newton at rtol 1e-6 /
+atol 1e-9, looser than the step's, because Newton converges quadratically and asking the step's
+tolerance of it on a stiff system (R1's condition number ~ h * 4e5) meets round-off, fails and
+rejects steps."""
+
+
+def chain_method(name: str, field: str = "solver") -> Solver:
+    """The solver registered as `name` (a CLI flag, a bench's row) as the chain runs it: an ESDIRK
+    method with `STAGE_ROOT_FINDER`, any other with its defaults."""
+    method = solver_from_name(name, field)
+    if isinstance(method, diffrax.AbstractImplicitSolver):
+        return dataclasses.replace(method, root_finder=STAGE_ROOT_FINDER)
+    return method
+
+
+CHAIN_SOLVER = SolverSettings(solver="rodas5", max_steps=4096)
 """The chain's default `SolverSettings`: Rodas5 for R1 and R2 (their Jacobians' largest
-eigenvalue is ~1e5-1e6 per unit duration; at rtol 1e-8 Rodas5 takes 77 + 8 steps where Rodas4
-took 175 + 12, and the 20 dCQA/dCPP by forward mode fell from ~11 to ~7.5 ms at the same 2.6e-7
-error: the crystallizer and dryer's Tsit5 set that error), Tsit5 for the crystallizer and the dryer (below ~20
-per unit duration at every PAR corner, tested), rtol 1e-8 / atol 1e-10 on the scaled states
-(concentrations [kmol/m^3], T / 300 K, moments scaled to O(1)), 4,096 steps per unit; for an
-ESDIRK solver, Newton on the stage equations at rtol 1e-6 / atol 1e-9 (see `SolverSettings`)."""
+eigenvalue is ~1e5-1e6 per unit duration; Rodas5 takes fewer steps than Rodas4 and gives the
+sensitivities faster at the same error, which the crystallizer and dryer's Tsit5 set:
+docs/pharma.md, Measurements behind the design), Tsit5 for the crystallizer and the dryer (below
+~20 per unit duration at every PAR corner, tested), rtol 1e-8 / atol 1e-10 on the scaled states
+(concentrations [kmol/m^3], T / 300 K, moments scaled to O(1)), 4,096 steps per unit. Other
+methods by name: `chain_method`."""
 
 
 class ChainResult(NamedTuple):

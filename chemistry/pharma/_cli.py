@@ -48,11 +48,11 @@ def check_solver_errors(args, warnings) -> None:
 
 def chain_from_args(args):
     """The chain and the CPPs from parsed arguments, validated before any compile."""
-    from ._chain import CHAIN_SOLVER, PHARMA_EFFECTS, PharmaChain
+    from ._chain import CHAIN_SOLVER, PHARMA_EFFECTS, PharmaChain, chain_method
     from ._parameters import make_cpps
 
-    solver = CHAIN_SOLVER.replace(rtol=args.rtol, atol=args.atol, solver=args.solver,
-                                  nonstiff_solver=args.nonstiff_solver)
+    solver = CHAIN_SOLVER.replace(rtol=args.rtol, atol=args.atol, solver=chain_method(args.solver),
+                                  nonstiff_solver=chain_method(args.nonstiff_solver, "nonstiff_solver"))
     scene = PHARMA_EFFECTS.scene(without=args.without)
     cpps = make_cpps(**{spec.name: getattr(args, spec.name) for spec in CPP_RANGES})
     return PharmaChain(scene=scene, solver=solver), cpps
@@ -95,14 +95,13 @@ def run_train(args) -> int:
 
 
 def _space_options(args) -> dict:
-    """The design space's options, checked (before anything is computed)."""
-    from ._design_space import check_space_options
+    """The design space's options, checked (before anything is computed), and the mesh."""
+    from ._design_space import DesignSpaceSettings
 
-    options = dict(x=args.x, y=args.y, points=args.points, samples=args.samples, sigma=args.sigma, seed=args.seed,
-                   level=args.level, verify_points=args.verify_points, surrogate_samples=args.surrogate_samples,
-                   curvature_points=args.curvature_points, mesh=args.mesh)
-    check_space_options(**options)
-    return options
+    settings = DesignSpaceSettings(x=args.x, y=args.y, points=args.points, samples=args.samples, sigma=args.sigma,
+                                   seed=args.seed, level=args.level, verify_points=args.verify_points,
+                                   surrogate_samples=args.surrogate_samples, curvature_points=args.curvature_points)
+    return {**settings.as_dict(), "mesh": args.mesh}
 
 
 def run_design_space(args) -> int:

@@ -22,10 +22,11 @@ operating point and points spread over the band where the probability changes) o
 import dataclasses
 import time
 
+import equinox as eqx
 import jax
 import numpy as np
 
-from snapo_ode import InputError, Result, check_choice, check_count, check_range
+from snapo_ode import InputError, Result, Settings, check_choice, check_count, check_range
 
 from ._chain import PharmaChain
 from ._cqa import meets_specs, spec_margins
@@ -101,21 +102,34 @@ def default_uncertain(chain: PharmaChain) -> list[str]:
     return [*rate_names(chain), *UNIT_RATES]
 
 
-def check_space_options(*, x: str, y: str, points: int, level: float, sigma: float, surrogate_samples: int,
-                        verify_points: int, samples: int, curvature_points: int, **_) -> None:
-    """Raise `InputError` for a `design_space` option out of range (the CLI calls it before
-    computing anything); other keyword arguments are ignored."""
-    check_choice("x", x, CPP_NAMES)
-    check_choice("y", y, tuple(n for n in CPP_NAMES if n != x))
-    check_count("points", points, 3, 201)
-    check_count("samples", samples, 2, 100_000)
-    check_count("surrogate_samples", surrogate_samples, 2, 1_000_000)
-    check_count("verify_points", verify_points, 1, points * points)
-    check_count("curvature_points", curvature_points, 0, points)
-    if curvature_points == 1:
-        raise InputError("curvature_points = 1; allowed: 0 (first order) or 2 and more (a grid to interpolate on).")
-    check_range("sigma", sigma, 0.0, 2.0, low_open=True)
-    check_range("level", level, 0.0, 1.0, low_open=True, high_open=True)
+class DesignSpaceSettings(Settings):
+    """What `design_space` computes (its arguments but the chain, the CPPs, `uncertain` and the
+    mesh), checked when built, before anything is computed: the CLI builds one from its flags."""
+
+    x: str = eqx.field(static=True, default="r1_temperature")
+    y: str = eqx.field(static=True, default="dryer_temperature")
+    points: int = eqx.field(static=True, default=21)
+    level: float = eqx.field(static=True, default=0.95)
+    sigma: float = eqx.field(static=True, default=0.1)
+    seed: int = eqx.field(static=True, default=0)
+    surrogate_samples: int = eqx.field(static=True, default=4096)
+    verify_points: int = eqx.field(static=True, default=9)
+    samples: int = eqx.field(static=True, default=1000)
+    curvature_points: int = eqx.field(static=True, default=6)
+
+    def __check_init__(self):
+        check_choice("x", self.x, CPP_NAMES)
+        check_choice("y", self.y, tuple(n for n in CPP_NAMES if n != self.x))
+        check_count("points", self.points, 3, 201)
+        check_count("samples", self.samples, 2, 100_000)
+        check_count("surrogate_samples", self.surrogate_samples, 2, 1_000_000)
+        check_count("verify_points", self.verify_points, 1, self.points * self.points)
+        check_count("curvature_points", self.curvature_points, 0, self.points)
+        if self.curvature_points == 1:
+            raise InputError("curvature_points = 1; allowed: 0 (first order) or 2 and more (a grid to interpolate on).")
+        check_range("sigma", self.sigma, 0.0, 2.0, low_open=True)
+        check_range("level", self.level, 0.0, 1.0, low_open=True, high_open=True)
+        check_count("seed", self.seed, 0)
 
 
 def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y: str = "dryer_temperature",
@@ -137,8 +151,9 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
 
     **Raises:** `InputError` for an unknown CPP, equal x and y, a bad size or level.
     """
-    check_space_options(x=x, y=y, points=points, level=level, sigma=sigma, surrogate_samples=surrogate_samples,
-                        verify_points=verify_points, samples=samples, curvature_points=curvature_points)
+    DesignSpaceSettings(x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
+                        surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
+                        curvature_points=curvature_points)
     ranges = {r.name: r for r in CPP_RANGES}
     xs, ys = np.linspace(*ranges[x].par, points), np.linspace(*ranges[y].par, points)
     uncertain = list(default_uncertain(chain) if uncertain is None else uncertain)

@@ -149,7 +149,9 @@ def design_space_section(data: dict) -> Section:
 
 def methods_section(data: dict) -> Section:
     ds, ver = ("design_space",), ("verification",)
-    solver = tuple((key, V(("solver", key), "g")) for key in data["solver"])
+    solver = tuple(row for key, value in data["solver"].items() for row in (
+        [(f"{key}: {option}", V(("solver", key, option), "g")) for option in value] if isinstance(value, dict)
+        else [(key, V(("solver", key), "g"))]))
     checks = Table(("check", "result"), (
         ("sensitivities (CPP block) against Richardson central differences, largest relative difference",
          V((*ver, "max_rel_diff_fd"), ".2e")),

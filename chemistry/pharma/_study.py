@@ -13,21 +13,21 @@ from snapo_ode import (
     ONCE_COMPILE, Jacobian, Result, agreement, bump_steps, bumps_program, call_checked, compare_with_bumps, exported, field,
     flatten_inputs, prefetch_checked, time_function)
 
-from ._chain import CHAIN_SOLVER, PharmaChain
+from ._chain import CHAIN_SOLVER, PharmaChain, chain_method
 from ._parameters import ChainInputs, CPPs, outside_par
 from ._ranges import CPP_NAMES, CQA_NAMES
 from ._sensitivities import (
     cqa_function, input_names, input_scales, jacobian_function, named_jacobian, normalized, parameter_names,
     prefetch_jacobian, resolve_mode)
 
-REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver="kvaerno5", nonstiff_solver="kvaerno5",
-                                 max_steps=20000)
+REFERENCE = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, solver=chain_method("kvaerno5"),
+                                 nonstiff_solver=chain_method("kvaerno5"), max_steps=20000)
 """The reference Jacobian's solver: a different method (ESDIRK Kvaerno5 on every unit) from the
 default (Rodas5 and Tsit5), so that `reference_rel_error` checks the method and the step.
 `sensitivity_study` differentiates it by the other mode from the study's (`other_mode`). The BDF
-on R1 and R2 (a multistep family) agrees with it to 1e-9 (tested) and traces in 3.3 s against
-4.9 s, but measured no faster cold (the BDF's 20.3-23.6 s against 20.3-23.0 s, taking turns) and
-is less accurate at the same rtol (1.1e-9 against 4.3e-10, from both at rtol 1e-13): not taken."""
+on R1 and R2 (a multistep family) agrees with it to 1e-9 (tested) and traces faster, but ran no
+faster cold and is less accurate at the same rtol: not taken (docs/pharma.md, Decisions and
+limits)."""
 REFERENCE_METHODS = "Kvaerno5 on every unit"
 """`REFERENCE`'s methods, as notes and reports name them."""
 BUMP_SOLVER = CHAIN_SOLVER.replace(rtol=1e-10, atol=1e-12)
@@ -40,9 +40,9 @@ stays far below 1e-5)."""
 def other_mode(mode: str) -> str:
     """The reference's mode for a study in `mode`: the other one, so that the reference also
     checks the study's derivative. For the default reverse study that is forward mode, which
-    also traces in half the time of reverse mode through Kvaerno5's root finder (5 s against
-    10.5 s, the critical path of a cold `snapo pharma sensitivities` then) and runs in about the
-    same (0.16-0.24 s against 0.18 s)."""
+    also traces in half the time of reverse mode through Kvaerno5's root finder (the critical
+    path of a cold `snapo pharma sensitivities` then) and runs in about the same (docs/pharma.md,
+    Decisions and limits)."""
     return "forward" if mode == "reverse" else "reverse"
 
 
@@ -133,7 +133,8 @@ def solver_error_warnings(checks: dict, rtol: float, threshold: float = MAX_SOLV
 def _cqa_shape(inputs: ChainInputs):
     """A stand-in of `cqa_function` with its output shape, (5,): `compare_with_bumps`, given the
     adjoint and the bumped functions, reads only that, through `equinox.filter_eval_shape`, which
-    on the chain itself would trace every unit's solve (~3 s in every process)."""
+    on the chain itself would trace every unit's solve, in every process (docs/pharma.md,
+    Measurements behind the design)."""
     return jnp.zeros(len(CQA_NAMES))
 
 
@@ -160,12 +161,12 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, 
     """Prepare the study's programs before the first runs (`snapo_ode.prefetch_checked`): the
     adjoint, the bumps (of `bumped_chain`, or None) and the reference Jacobian (its solver
     settings or None); whether the reference was on disk. A second process reads them in
-    background threads (one after another they took ~2 s of the ~5.5 s a warm `snapo pharma
-    sensitivities` took, on 2 cores). A first one hands the reference to a helper process
-    (`elsewhere`), started first, and traces the adjoint here meanwhile (tracing holds the
-    interpreter lock: the three traces one after another were 19.5 s of a 35 s cold run), then
-    the bumps while the adjoint compiles (a second helper for the bumps measured 0.4 s slower:
-    21.2-21.8 s against 20.6-21.3 s, taking turns). The bumps' steps are built as
+    background threads (one after another, their reading was a large share of a warm `snapo
+    pharma sensitivities`). A first one hands the reference to a helper process (`elsewhere`),
+    started first, and traces the adjoint here meanwhile (tracing holds the interpreter lock: the
+    three traces one after another were most of a cold run), then the bumps while the adjoint
+    compiles (a second helper for the bumps was slower). The figures: docs/pharma.md,
+    Measurements behind the design. The bumps' steps are built as
     `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
     on_disk = reference is not None and prefetch_jacobian(chain.with_solver(reference), inputs, True,
                                                           other_mode(mode), once=True, elsewhere=True)
@@ -178,7 +179,8 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, 
 
 def _reference_jacobian(chain: PharmaChain, inputs: ChainInputs, reference, mode: str) -> Jacobian:
     """The named Jacobian at `reference`'s settings by the other mode: a check, run once and not
-    timed (a second run only to time it took 0.1-0.3 s)."""
+    timed (a second run only to time it would be time lost: docs/pharma.md, Measurements behind
+    the design)."""
     values, matrix = jacobian_function(chain.with_solver(reference), True, other_mode(mode), once=True)(inputs)
     return named_jacobian(chain, inputs, values, matrix, other_mode(mode))
 
@@ -193,8 +195,9 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     (`solver_error_warnings`). The runs go one after another, so that the adjoint's timing
     shares the cores with no other run (in a first process the reference's helper may still be
     compiling beside it, at a lower priority); the reference runs first when it was on disk
-    (ready before the adjoint, whose executable takes the longest to read: 0.3 s of a warm run
-    hidden), else last (a helper process traces and compiles it)."""
+    (ready before the adjoint, whose executable takes the longest to read: running the reference
+    meanwhile hides part of that wait; docs/pharma.md, Measurements behind the design), else last
+    (a helper process traces and compiles it)."""
     inputs = chain.inputs(cpps)
     mode = resolve_mode(mode, len(input_names(chain)))
     scales = input_scales(inputs)

@@ -26,8 +26,7 @@ def run_pendulum(train_steps: int | None = None, *, eval_episodes: int = 100, ev
     """
     settings = settings or TrainingSettings()
     if train_steps is not None:
-        settings = settings._replace(steps=train_steps)
-    settings.check()
+        settings = settings.replace(steps=train_steps)
     check_count("eval_episodes", eval_episodes)
     check_count("eval_seed", eval_seed, low=0)
     check_count("seed", seed, low=0)
@@ -40,7 +39,7 @@ def run_pendulum(train_steps: int | None = None, *, eval_episodes: int = 100, ev
     returns = gymnasium_returns(policy, eval_episodes, eval_seed)
     baseline = {}
     if without_periodic:
-        plain, plain_trained = train_policy(pendulum, settings._replace(periodic=False), key, progress=progress)
+        plain, plain_trained = train_policy(pendulum, settings.replace(periodic=False), key, progress=progress)
         plain_returns = gymnasium_returns(plain, eval_episodes, eval_seed, periodic=False)
         baseline = dict(mean_return_without_periodic=float(np.mean(plain_returns)),
                         std_return_without_periodic=float(np.std(plain_returns)),
@@ -58,6 +57,6 @@ def run_pendulum(train_steps: int | None = None, *, eval_episodes: int = 100, ev
     return PendulumStudy(
         mean_return=float(np.mean(returns)), std_return=float(np.std(returns)), episodes=eval_episodes,
         eval_seed=eval_seed, train_seconds=trained.seconds, compile_seconds=trained.compile_seconds,
-        train_steps=trained.steps_run, settings=settings._asdict(), load_average=load_average,
+        train_steps=trained.steps_run, settings=settings.as_dict(), load_average=load_average,
         cpu_count=os.cpu_count() or 1, policy_path=None if policy_path is None else str(policy_path),
         returns=returns.tolist(), learning_curve=trained.history["value"], policy=policy, **baseline)

@@ -3,30 +3,29 @@
 Each optimisation step draws a batch of initial states from Pendulum-v1's reset distribution,
 rolls the smooth model out for the whole episode and differentiates the mean episode cost.
 Through an unstable, chaotic rollout the exact gradient is dominated by long products of step
-Jacobians (global norms up to 2e7 measured, and a policy at -895 after 300 steps), so the
+Jacobians (its norms grow huge, and it trains a poor policy), so the
 reverse pass decays each step's state cotangent by `gradient_decay` (the forward pass is
 untouched): a cost k steps after an action reaches it weighted by gradient_decay^k, a soft
 short horizon of about 1 / (1 - gradient_decay) steps. The decay follows a curriculum: held
 low while the policy learns to swing up (a longer horizon at the start left some seeds stuck near
-the untrained return), then raised towards the exact gradient to refine the policy. Measured in
-docs/pendulum.md.
+the untrained return), then raised towards the exact gradient to refine the policy. The
+comparisons behind these choices: docs/pendulum.md, What mattered.
 """
 
 import os
-from typing import NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 
 import snapo_ode
-from snapo_ode import MLPPolicy, check_count, check_range
+from snapo_ode import MLPPolicy, Settings, check_count, check_range
 
 from ._model import Pendulum, features
 
 
-class TrainingSettings(NamedTuple):
-    """How a policy is trained (defaults as measured in docs/pendulum.md).
+class TrainingSettings(Settings):
+    """How a policy is trained (defaults chosen by the comparisons in docs/pendulum.md).
 
     - `steps`: optimisation steps; `batch`: initial states per step.
     - `learning_rate`: Adam's peak rate (warm-up, then cosine decay to 1%); `clip_norm`: global
@@ -36,25 +35,24 @@ class TrainingSettings(NamedTuple):
       then raised linearly to `final_gradient_decay` at the last step.
     - `sharpness`: of the smooth clips and the smooth angle cost [1/unit].
     - `width`, `depth`: the policy MLP.
-    - `float32`: train in float32 (measured faster on a CPU); the returned policy is float64.
+    - `float32`: train in float32 (faster on a CPU, same returns); the returned policy is float64.
     - `periodic`: the periodic treatment of theta (features and cost); `False` for the baseline.
     """
 
-    steps: int = 600
-    batch: int = 64
-    learning_rate: float = 1e-2
-    clip_norm: float = 1.0
-    gradient_decay: float = 0.9
-    final_gradient_decay: float = 0.99
-    ramp_start: float = 0.3
-    sharpness: float = 10.0
-    width: int = 64
-    depth: int = 2
-    float32: bool = True
-    periodic: bool = True
+    steps: int = eqx.field(static=True, default=600)
+    batch: int = eqx.field(static=True, default=64)
+    learning_rate: float = eqx.field(static=True, default=1e-2)
+    clip_norm: float = eqx.field(static=True, default=1.0)
+    gradient_decay: float = eqx.field(static=True, default=0.9)
+    final_gradient_decay: float = eqx.field(static=True, default=0.99)
+    ramp_start: float = eqx.field(static=True, default=0.3)
+    sharpness: float = eqx.field(static=True, default=10.0)
+    width: int = eqx.field(static=True, default=64)
+    depth: int = eqx.field(static=True, default=2)
+    float32: bool = eqx.field(static=True, default=True)
+    periodic: bool = eqx.field(static=True, default=True)
 
-    def check(self) -> "TrainingSettings":
-        """Raise `InputError` naming the first bad field; returns the settings."""
+    def __check_init__(self):
         check_count("train_steps", self.steps)
         check_count("batch", self.batch)
         check_count("width", self.width)
@@ -65,7 +63,6 @@ class TrainingSettings(NamedTuple):
         check_range("final_gradient_decay", self.final_gradient_decay, 0.0, 1.0, low_open=True)
         check_range("ramp_start", self.ramp_start, 0.0, 1.0)
         check_range("sharpness", self.sharpness, 0.0, low_open=True)
-        return self
 
     def decay_at(self, step):
         """The gradient decay at training step `step` (0-based; an int or a traced integer)."""
@@ -122,7 +119,6 @@ def train_policy(pendulum: Pendulum, settings: TrainingSettings, key, *, progres
     **Returns:** the policy (float64) and the `snapo_ode.TrainResult` (history of the loss, the
     mean smooth episode cost, per step; wall time after the first step; compile time).
     """
-    settings.check()
     dtype = jnp.float32 if settings.float32 else jnp.float64
     init_key, data_key = jax.random.split(key)
     policy = _cast(new_policy(pendulum, settings, init_key), dtype)

@@ -23,7 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import EffectCatalogue, InputError, Scene, check_range, smooth
+from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_range, smooth
 
 from ._assets import MarketState, gross_returns, initial_prices, zero_rate
 from ._factors import FactorLayout
@@ -44,7 +44,7 @@ EFFECTS = EffectCatalogue(
 MAX_HORIZON_MONTHS = 600
 
 
-class ALMConfig(eqx.Module):
+class ALMConfig(Settings):
     """Parameters of the effects and of the objective.
 
     **Arguments:**

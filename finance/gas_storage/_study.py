@@ -3,7 +3,6 @@ and take every sensitivity from one reverse pass (optionally against bump-and-re
 
 import pathlib
 import time
-from dataclasses import dataclass
 
 import equinox as eqx
 import jax
@@ -11,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import snapo_ode
-from snapo_ode import check_choice, check_count, time_function
+from snapo_ode import Settings, check_choice, check_count, time_function
 
 from ._inputs import StorageInputs, check_positive_prices
 from ._lp import solve_intrinsic
@@ -34,8 +33,7 @@ HEAD_TRAINING = {
 }
 
 
-@dataclass(frozen=True)
-class StudySettings:
+class StudySettings(Settings):
     """**Fields:** `stochastic` (trade on simulated spot paths); `paths` (Monte Carlo paths of
     the evaluation, drawn fresh, common to the value, the adjoint and the bumps); `head` (of the
     policy, see `make_policy`; `split_actions=True` is `head="split"`) and `width`;
@@ -51,40 +49,46 @@ class StudySettings:
     1 in stochastic mode, where it takes seconds); `progress` (show a progress bar); `checkpoint_path` and `resume` (of the training,
     see `snapo_ode.train`)."""
 
-    stochastic: bool = False
-    paths: int = 1000
-    head: PolicyHead = DEFAULT_HEAD
-    split_actions: bool = False
-    train_paths: int | None = None
-    seed: int = 0
-    train_steps: int | None = None
-    learning_rate: float | None = None
-    sharpness: float | None = None
-    hard_training: bool | None = None
-    train_float32: bool | None = None
-    width: int = 32
-    deltas_only: bool = False
-    bump: bool = False
-    repeats: int | None = None
-    progress: bool = True
-    checkpoint_path: pathlib.Path | None = None
-    resume: bool = False
+    stochastic: bool = eqx.field(static=True, default=False)
+    paths: int = eqx.field(static=True, default=1000)
+    head: PolicyHead = eqx.field(static=True, default=DEFAULT_HEAD)
+    split_actions: bool = eqx.field(static=True, default=False)
+    train_paths: int | None = eqx.field(static=True, default=None)
+    seed: int = eqx.field(static=True, default=0)
+    train_steps: int | None = eqx.field(static=True, default=None)
+    learning_rate: float | None = eqx.field(static=True, default=None)
+    sharpness: float | None = eqx.field(static=True, default=None)
+    hard_training: bool | None = eqx.field(static=True, default=None)
+    train_float32: bool | None = eqx.field(static=True, default=None)
+    width: int = eqx.field(static=True, default=32)
+    deltas_only: bool = eqx.field(static=True, default=False)
+    bump: bool = eqx.field(static=True, default=False)
+    repeats: int | None = eqx.field(static=True, default=None)
+    progress: bool = eqx.field(static=True, default=True)
+    checkpoint_path: pathlib.Path | None = eqx.field(static=True, default=None)
+    resume: bool = eqx.field(static=True, default=False)
 
     def __post_init__(self):
         if self.split_actions:
-            object.__setattr__(self, "head", "split")
+            if self.head not in (DEFAULT_HEAD, "split"):
+                raise snapo_ode.InputError(f"split_actions = True with head = {self.head!r}: split_actions means "
+                                           "head = 'split'; give one of them.")
+            self.head = "split"
         check_choice("head", self.head, POLICY_HEADS)
         for name, default in HEAD_TRAINING[self.head].items():
             if getattr(self, name) is None:
-                object.__setattr__(self, name, default)
+                setattr(self, name, default)
+        if self.repeats is None:
+            self.repeats = 1 if self.stochastic else 5
+
+    def __check_init__(self):
         check_count("paths", self.paths, 2, 10_000_000)
         check_count("train_paths", self.train_paths, 1, 10_000_000)
         check_count("train_steps", self.train_steps, 1, 10_000_000)
         snapo_ode.check_range("learning_rate", self.learning_rate, 0.0, 1.0, low_open=True)
         snapo_ode.check_range("sharpness", self.sharpness, 0.0, 1e8, low_open=True)
-        if self.repeats is None:
-            object.__setattr__(self, "repeats", 1 if self.stochastic else 5)
         check_count("repeats", self.repeats)
+        check_count("width", self.width, 1, 4096)
 
     @property
     def training(self) -> tuple:
@@ -200,7 +204,7 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
     policy = trained.params
 
     # The evaluation shocks are arguments, not closed-over constants: XLA would fold a constant
-    # array of 10,000 paths through the price model at compile time (measured: tens of seconds).
+    # array of 10,000 paths through the price model at compile time, a long compile.
     @eqx.filter_jit
     def evaluate(policy, inputs, shocks, sharpness_is_hard: bool):
         return simulate(policy, inputs, scene, sharpness=None if sharpness_is_hard else settings.sharpness,

@@ -7,10 +7,8 @@ Why a second stiff family beside `snapo_ode.Rodas5`: a Rosenbrock step needs the
 and a new factorisation at every step and evaluates the vector field once per stage (8 times
 for Rodas5), while a BDF step solves one implicit equation by a Newton iteration that reuses its
 Jacobian over many steps and its factorisation until the step size or order changes, as CVODES
-does (measured with Cantera's CVODES on the ignition benchmark at rtol 1e-10: h2o2 in 261 steps
-with 5 Jacobians and 306 evaluations, gri30 in 397 steps with 7 Jacobians). Rodas5 itself cannot
-reuse its Jacobian: with one 2-5 steps old, the same h2o2 ignition took 3,000-3,600 steps
-instead of 239.
+does. Rodas5 itself cannot reuse its Jacobian: with an old one it takes many times the steps
+(the measurements: docs/architecture.md, Measurements behind the design).
 
 The search (`snapo_ode._solver.bdf_search`) takes the steps: predictor, Newton iteration, error test,
 step size and order. Derivatives are those of the discrete solution with the step sizes and
@@ -20,20 +18,24 @@ Jacobian at the converged state and one solve a step, `_corrected`), not through
 iterations. Forward mode differentiates the search itself (`jax.lax.while_loop`). Reverse mode
 cannot (a while loop), so there the search records each accepted step (its decisions, the
 differences its predictor used, its increment: `max_steps` rows) and the backward pass replays
-them (`_replay`, in equinox's checkpointed loop, whose checkpoints hold the differences only):
-measured on a gri30 gradient, 31 MB of XLA temporaries against 203 MB when the search itself,
-its Jacobian and factorisation included, was checkpointed. Both are behind a `jax.custom_vjp`
-(`_reverse_solve`), so that a solve nobody differentiates records nothing (a record of 20,000
-rows took 25 ms to allocate on gri30, three times the solve).
+them (`_replay`, in equinox's checkpointed loop, whose checkpoints hold the differences only,
+not the search's Jacobian and factorisation: a fraction of the memory). Both are behind a
+`jax.custom_vjp` (`_reverse_solve`), so that a solve nobody differentiates records nothing
+(allocating the record costs more than a solve on a large mechanism).
 """
 
 import functools
 
+import diffrax
 import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
+from jax.flatten_util import ravel_pytree
 
+from .._ode import SolveResult, checked_ys
+from .._platform.validation import InputError
+from .base import AbstractSolver, output_times, solution
 from .bdf_formulas import ALPHA, ROWS, initial_outputs, interpolate, predict, rescale, update
 from .bdf_search import _initial_step, _search
 
@@ -117,8 +119,7 @@ def _replay(field, jacobian, args, field_consts, jacobian_consts, differences, r
         differences = rescale(differences, order, jnp.where(active, factor, 1.0))
         # The values are the search's, the derivatives those of this recomputation: replayed
         # with its increments held, the recurrence would drift from the search's values by
-        # round-off that nothing corrects (measured: 1e-12 at the first order-5 step of a stiff
-        # linear system, 1e-6 after 170 more).
+        # round-off that nothing corrects and that grows step after step.
         differences = jnp.where(active, searched, differences) + (differences - jax.lax.stop_gradient(differences))
         predicted, psi = predict(differences, order)
         predicted = jnp.where(active, predicted, y0)
@@ -203,10 +204,11 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
     checkpointed loop with `checkpoints`, default `max_steps`); else forward mode, through the
     search itself.
 
-    **Returns:** `(ys, stats, status)`: the solution at `ts` (shape `(n_ts, n)`, from the
-    interpolant of the step that covers each time), `BdfStats`, and 0 (reached t1), 1 (max_steps
-    reached), 2 (the step size collapsed, or the Newton iteration never converged) or 3 (t1 <= t0,
-    or an output time outside [t0, t1]). Differentiable in `y0`, `args`, what the functions close
+    **Returns:** `(ys, stats, result)`: the solution at `ts` (shape `(n_ts, n)`, from the
+    interpolant of the step that covers each time), `BdfStats`, and a `snapo_ode.SolveResult`:
+    successful (reached t1), max_steps_reached, failed (the step size collapsed, or the Newton
+    iteration never converged) or times_out_of_range (t1 <= t0, or an output time outside
+    [t0, t1]). Differentiable in `y0`, `args`, what the functions close
     over, `t0` and `ts` (d y(tau) / d tau = f), not in `t1` beyond the output times.
     """
     # What the functions close over (e.g. a model's parameters) as arguments, so that it is
@@ -233,7 +235,43 @@ def bdf_solve(vector_field, jacobian, t0, t1, y0, args, ts, *, rtol: float, atol
 
         saved, _, stats, status = _searched(field, jacobian_fn, options, t0, t1, h, ts, y0, args, field_consts,
                                             jacobian_consts, corrector=corrector)
-    # The status is 3 where the (traced) times are out of order: `SolverSettings` checks concrete
-    # ones before the solve.
-    status = jnp.where((t1 > t0) & jnp.all((ts >= t0) & (ts <= t1)), status, 3)
-    return _timed(field, 1.0, timed_ts, saved, args, field_consts), stats, status
+    result = SolveResult.where(status == 0, SolveResult.successful, SolveResult.where(
+        status == 1, SolveResult.max_steps_reached, SolveResult.failed))
+    # Traced times out of order (`BDF.solve` checks concrete ones before the solve).
+    result = SolveResult.where((t1 > t0) & jnp.all((ts >= t0) & (ts <= t1)), result, SolveResult.times_out_of_range)
+    return _timed(field, 1.0, timed_ts, saved, args, field_consts), stats, result
+
+
+class BDF(AbstractSolver):
+    """`bdf_solve` as a `SolverSettings` solver (`solver="bdf"`): no options of its own (the error
+    test takes the settings' rtol and atol); values at given times only; derivatives by the
+    settings' `differentiation`, "reverse" (recorded steps replayed) or "forward" (`jax.jvp`,
+    `jax.jacfwd`; under "reverse" forward mode raises JAX's custom_vjp error)."""
+
+    def solve(self, settings, vector_field, t0, t1, y0, args, saveat, jacobian) -> diffrax.Solution:
+        if settings.differentiation == "backsolve":
+            raise InputError("solver = 'bdf' with differentiation = 'backsolve': the BDF solver differentiates "
+                             "its own steps; use differentiation = 'reverse' or 'forward'.")
+        ts = jnp.asarray(output_times(self, saveat, t1), float)
+        y0 = jax.tree.map(lambda x: x if jnp.issubdtype(jnp.result_type(x), jnp.inexact) else jnp.asarray(x, float), y0)
+        if not any(isinstance(x, jax.core.Tracer) for x in (t0, t1, ts)) and not (
+                float(t0) < float(t1) and float(t0) <= float(jnp.min(ts)) and float(jnp.max(ts)) <= float(t1)):
+            raise InputError(f"solver = 'bdf' integrates forward from t0 = {float(t0):g} to t1 = {float(t1):g} "
+                             f"(t0 < t1) and saves within [t0, t1]; saveat.ts spans {float(jnp.min(ts)):g} to "
+                             f"{float(jnp.max(ts)):g}.")
+        y0_flat, unravel = ravel_pytree(y0)
+
+        def rate(t, y, args):
+            return ravel_pytree(vector_field(t, unravel(y), args))[0]
+
+        def jacobian_flat(t, y, args):
+            return jax.jacfwd(rate, argnums=1)(t, y, args) if jacobian is None else jacobian(t, unravel(y), args)
+
+        ys, stats, result = bdf_solve(rate, jacobian_flat, jnp.asarray(t0, float), jnp.asarray(t1, float), y0_flat,
+                                      args, ts, rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps,
+                                      reverse=settings.differentiation == "reverse",
+                                      checkpoints=settings.checkpoints)
+        return solution(t0, t1, ts, jax.vmap(unravel)(checked_ys(ys, result)), stats._asdict())
+
+    def controller_description(self, settings) -> str:
+        return "the BDF's own error test and order selection (snapo_ode._solver.bdf)"

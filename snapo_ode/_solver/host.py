@@ -1,5 +1,5 @@
 """Peer solvers on the host, on the same vector field: SUNDIALS CVODE (BDF, through
-scikit-sundae) and SciPy's BDF, Radau and LSODA. `SolverSettings(solver="cvode", ...)` runs a
+scikit-sundae) and SciPy's BDF, Radau and LSODA. `SolverSettings(solver=CVODE())` (or "cvode", ...) runs a
 model's solves with them instead of Diffrax, so that the model, its algebra and its right-hand
 side are the same and only the integrator differs: what `snapo bench accuracy` compares.
 
@@ -9,20 +9,41 @@ and called from the host solver through `jax.pure_callback`, with its exact Jaco
 solve returns NaN, which `call_checked` turns into `SolverFailed`.
 """
 
+import abc
+from typing import ClassVar
+
+import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-HOST_SOLVERS: tuple[str, ...] = ("cvode", "scipy-bdf", "scipy-radau", "scipy-lsoda")
+from .base import AbstractSolver, output_times, solution
+
+class AbstractHostSolver(AbstractSolver):
+    """A peer solver on the host: values at given times only, no derivative."""
+
+    @abc.abstractmethod
+    def integrate(self, field, jacobian, t0: float, ts: np.ndarray, y0: np.ndarray, rtol: float, atol: float,
+                  max_steps: int) -> np.ndarray:
+        """States at `ts` (shape (len(ts), n)) from `y0` at `t0`; NaN where the solve failed."""
+
+    def solve(self, settings, vector_field, t0, t1, y0, args, saveat, jacobian) -> diffrax.Solution:
+        ts = output_times(self, saveat, t1)
+        ys = host_solve(self, vector_field, t0, t1, y0, args, ts, rtol=settings.rtol, atol=settings.atol,
+                        max_steps=settings.max_steps)
+        return solution(t0, t1, ts, ys, {})
+
+    def controller_description(self, settings) -> str:
+        return f"{type(self).__name__}'s own step control on the host (rtol {settings.rtol:g}, atol {settings.atol:g})"
 
 
-def _integrate(name: str, field, jacobian, t0: float, ts: np.ndarray, y0: np.ndarray, rtol: float, atol: float,
-               max_steps: int) -> np.ndarray:
-    """States at `ts` (shape (len(ts), n)) from `y0` at `t0`; NaN where the solve failed."""
-    failed = np.full((ts.size, y0.size), np.nan)
-    if name == "cvode":
-        from sksundae.cvode import CVODE
+class CVODE(AbstractHostSolver):
+    """SUNDIALS CVODE (BDF, Newton with a dense direct solver), through scikit-sundae."""
+
+    def integrate(self, field, jacobian, t0, ts, y0, rtol, atol, max_steps):
+        from sksundae.cvode import CVODE as Sundials
 
         def rhs(t, y, yp):
             yp[:] = field(t, y)
@@ -35,18 +56,48 @@ def _integrate(name: str, field, jacobian, t0: float, ts: np.ndarray, y0: np.nda
         times = np.concatenate([[t0], ts]) if ts[0] > t0 else ts
         if times.size < 3:
             times = np.array([times[0], 0.5 * (times[0] + times[-1]), times[-1]])
-        solution = CVODE(rhs, method="BDF", rtol=rtol, atol=atol, jacfn=jac, max_num_steps=max_steps).solve(times, y0)
-        return solution.y[-ts.size:] if solution.success and solution.y.shape[0] == times.size else failed
-    from scipy.integrate import solve_ivp
-
-    method = {"scipy-bdf": "BDF", "scipy-radau": "Radau", "scipy-lsoda": "LSODA"}[name]
-    solution = solve_ivp(field, (t0, ts[-1]), y0, method=method, t_eval=ts, rtol=rtol, atol=atol, jac=jacobian)
-    return solution.y.T if solution.success else failed
+        solved = Sundials(rhs, method="BDF", rtol=rtol, atol=atol, jacfn=jac, max_num_steps=max_steps).solve(times, y0)
+        return solved.y[-ts.size:] if solved.success and solved.y.shape[0] == times.size else _failed(ts, y0)
 
 
-def host_solve(name: str, vector_field, t0, t1, y0, args, ts, *, rtol: float, atol: float, max_steps: int):
+class AbstractScipySolver(AbstractHostSolver):
+    """`scipy.integrate.solve_ivp` with `method` and the exact Jacobian."""
+
+    method: eqx.AbstractClassVar[str]
+
+    def integrate(self, field, jacobian, t0, ts, y0, rtol, atol, max_steps):
+        from scipy.integrate import solve_ivp
+
+        solved = solve_ivp(field, (t0, ts[-1]), y0, method=self.method, t_eval=ts, rtol=rtol, atol=atol, jac=jacobian)
+        return solved.y.T if solved.success else _failed(ts, y0)
+
+
+class ScipyBDF(AbstractScipySolver):
+    """SciPy's variable-order BDF."""
+
+    method: ClassVar[str] = "BDF"
+
+
+class ScipyRadau(AbstractScipySolver):
+    """SciPy's Radau IIA (order 5)."""
+
+    method: ClassVar[str] = "Radau"
+
+
+class ScipyLSODA(AbstractScipySolver):
+    """SciPy's LSODA (switches between Adams and BDF)."""
+
+    method: ClassVar[str] = "LSODA"
+
+
+def _failed(ts, y0) -> np.ndarray:
+    return np.full((ts.size, y0.size), np.nan)
+
+
+def host_solve(solver: AbstractHostSolver, vector_field, t0, t1, y0, args, ts, *, rtol: float, atol: float,
+               max_steps: int):
     """The states of `dy/dt = vector_field(t, y, args)` at `ts` (None: at `t1` only), shape
-    `(len(ts), *y0)` as a pytree like `y0`, by the host solver `name` (one of `HOST_SOLVERS`)."""
+    `(len(ts), *y0)` as a pytree like `y0`, by the host `solver`."""
     flat0, unravel = ravel_pytree(y0)
 
     def flat_field(t, y):
@@ -66,7 +117,7 @@ def host_solve(name: str, vector_field, t0, t1, y0, args, ts, *, rtol: float, at
     times = jnp.atleast_1d(jnp.asarray(t1 if ts is None else ts, float))
 
     def on_host(t0, times, y0, *constants):
-        return _integrate(name, lambda t, y: np.asarray(field(t, y, *constants)),
+        return solver.integrate(lambda t, y: np.asarray(field(t, y, *constants)),
                           lambda t, y: np.asarray(jacobian(t, y, *constants)), float(t0), np.asarray(times),
                           np.asarray(y0), rtol, atol, max_steps).astype(np.asarray(y0).dtype)
 

@@ -4,7 +4,7 @@ factorisation per step, no Newton iteration.
 Diffrax 0.7 ships only implicit Runge-Kutta methods for stiff problems. Each of their stages
 runs a root find (a Jacobian and a factorisation per Newton iteration) and, when
 differentiated, an implicit-function linear solve that breaks down on rejected steps where
-the stage Jacobian is singular (measured on gri30 ignition: the reverse pass gives NaN). A
+the stage Jacobian is singular (on a gri30 ignition the reverse pass gives NaN). A
 Rosenbrock step is a fixed sequence of solves with one matrix, so it is cheaper, and its
 derivative is the derivative of ordinary arithmetic.
 
@@ -96,8 +96,7 @@ def _solve(factors, matrix, rhs):
     The derivative goes through `matrix`, never through the factorisation: d x = matrix^-1
     (d rhs - d matrix x), so a reverse pass gives the matrix the outer product
     -(matrix^-T x_bar) x^T. Differentiating the LU factorisation instead (JAX's rule for
-    `lu`) made a gri30 Rosenbrock step's reverse pass slower (measured: a step's VJP took 8.1 ms
-    that way, 4.8 ms this way)."""
+    `lu`) makes a large system's reverse step slower."""
     return jsl.lu_solve(factors, rhs)
 
 
@@ -132,18 +131,14 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
       knows its structure can build it cheaper than the default `jax.jacfwd` over the whole
       state: a reactor differentiates its temperature with one tangent, so that the
       temperature-only rate constants are not carried through every concentration tangent
-      (measured on gri30: 0.46 ms against 1.0 ms a Jacobian).
+      (about half the time a Jacobian on gri30).
     - `unroll_stages`: False (default): the stages between the first and the last run in a
       `jax.lax.fori_loop` over the tableau's rows, so the vector field is traced and compiled
-      once for them, not once per stage. True: every stage written out in the program.
-      Measured (2026-11-25, 2-core CPU, values identical): the loop traces and compiles 25-40%
-      faster (h2o2 ignition gradient: trace 11.6 -> 7.0 s, compile 16.2 -> 10.6 s; the pharma
-      chain's reverse-mode Jacobian 11.8 -> 8.5 s and 13.8 -> 10.7 s), runs forward solves
-      in the same time and reverse passes 10% slower on a small system (h2o2 gradient 55 -> 61
-      ms; gri30 +2%; the pharma chain the same), and in half of the processes 2x slower (h2o2
-      117-123 ms, the chain 18.6 ms once in three: XLA's two CPU threads contending over the
-      loop; pinned to one core, never). Unroll for long sweeps of gradients, where the run
-      outweighs the compile.
+      once for them, not once per stage. True: every stage written out in the program. The
+      values are the same; the loop traces and compiles faster, the unrolled stages run reverse
+      passes of small systems faster and without the loop's occasional slowdown when XLA's CPU
+      threads contend over it. Unroll for long sweeps of gradients, where the run outweighs the
+      compile (the measurements: docs/architecture.md, Measurements behind the design).
     """
 
     jacobian: eqx.AbstractVar[Callable | None]
@@ -170,8 +165,8 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
         t0 = jnp.asarray(t0, dtype)
         # Under jax.vmap, Diffrax's loop goes on stepping a member that has finished, from t1 to
         # t1, and discards the result. With h = 0, I / (gamma h) is inf and the stages NaN,
-        # which a reverse pass multiplies by the discard's zero cotangent (measured: every
-        # gradient of a batch member that finished before the slowest was NaN). Such a step is
+        # which a reverse pass multiplies by the discard's zero cotangent (every gradient of a
+        # batch member that finished before the slowest was NaN). Such a step is
         # taken with a step of one ulp of t0 instead (every stage finite), and returns y0.
         still = h == 0.0
         h = jnp.where(still, jnp.finfo(dtype).eps * jnp.maximum(jnp.abs(t0), 1.0), h)
