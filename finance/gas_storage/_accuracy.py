@@ -52,14 +52,16 @@ def smoothing_panels(quick: bool, seed: int) -> list[Panel]:
 
     hard_bumps = central_differences(jax.jit(hard_value), prices, relative_step=1e-6)
     default = HEAD_TRAINING[study.head]["sharpness"]
+    # The sharpness as a traced argument: one program for every k.
+    smooth = jax.jit(lambda p, k: expected_value(policy, with_prices(p), scene, sharpness=k))
+    value_and_deltas = jax.jit(jax.value_and_grad(lambda i, k: expected_value(policy, i, scene, sharpness=k)))
     gap, gradient = [], []
     for k in SHARPNESS[::2] if quick else SHARPNESS:
         setting = f"k={k:g}"
-        smooth = jax.jit(lambda p, k=k: expected_value(policy, with_prices(p), scene, sharpness=k))
-        value, deltas = jax.jit(jax.value_and_grad(lambda i, k=k: expected_value(policy, i, scene, sharpness=k)))(inputs)
+        value, deltas = value_and_deltas(inputs, jnp.asarray(k))
         adjoint = np.asarray(deltas.forward_curve)[np.asarray(days)]
         gap.append(Point("smooth - hard, relative", setting, k, abs(float(value) - hard) / abs(hard)))
-        smooth_bumps = central_differences(smooth, prices, relative_step=1e-6)
+        smooth_bumps = central_differences(smooth, prices, jnp.asarray(k), relative_step=1e-6)
         gradient.append(Point("adjoint vs bumps of the smooth value", setting, k,
                               agreement(adjoint, smooth_bumps, floor=1.0).max_rel_diff))
         gradient.append(Point("adjoint vs bumps of the hard value", setting, k,
