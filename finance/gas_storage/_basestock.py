@@ -188,10 +188,11 @@ def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: in
 
 
 def basestock_targets(policy: BasestockPolicy, inputs: StorageInputs, scene: Scene, log_spot_ratio,
-                      sharpness: float | None):
+                      sharpness: float | None, floor: jax.Array | None = None):
     """The targets b_L, b_U [MMBtu] for tomorrow's inventory, each shape (paths, T), or (T,)
-    when `log_spot_ratio` (the factor, shape (paths, T)) is None."""
-    floor = inventory_floor(inputs, scene, sharpness)[1:]
+    when `log_spot_ratio` (the factor, shape (paths, T)) is None. `floor`: `inventory_floor`
+    when the caller has it (its backward recursion then runs once per simulation)."""
+    floor = (inventory_floor(inputs, scene, sharpness) if floor is None else floor)[1:]
     ceiling = inventory_ceiling(inputs, scene, sharpness)[1:]
     calendar = calendar_features(inputs.n_days, policy.harmonics)
     logits = policy.logits(calendar, jnp.log(inputs.forward_curve), log_spot_ratio)
@@ -208,19 +209,19 @@ def simulate_basestock(policy: BasestockPolicy, inputs: StorageInputs, scene: Sc
     continuous in the targets, the prices and the facility's parameters, so its pathwise
     gradient is informative, unlike that of a bang-bang rule."""
     stochastic = scene.has("stochastic_spot")
+    floor = inventory_floor(inputs, scene, sharpness)
     if stochastic:
         if shocks is None:
             raise ValueError("the stochastic_spot effect needs shocks of shape (paths, T)")
         prices, factor = spot_prices(inputs, shocks)
-        low, high = basestock_targets(policy, inputs, scene, factor, sharpness)
+        low, high = basestock_targets(policy, inputs, scene, factor, sharpness, floor)
         low_t, high_t = low.T, high.T
         start = jnp.broadcast_to(inputs.initial_inventory, prices.shape[:1])
     else:
-        low, high = basestock_targets(policy, inputs, scene, None, sharpness)
+        low, high = basestock_targets(policy, inputs, scene, None, sharpness, floor)
         prices, low_t, high_t = inputs.forward_curve, low, high
         start = inputs.initial_inventory
     flow_k = flow_sharpness(inputs, sharpness)
-    floor = inventory_floor(inputs, scene, sharpness)
 
     def step(day, inventory, _, today):
         low, high, floor_tomorrow = today
