@@ -38,7 +38,8 @@ class SolveResult(eqx.Enumeration):
         "transient, a chord root finder (VeryChord) often succeeds where Newton stalls.")
     failed = (
         "the ODE solve failed (step size collapsed, or the implicit solve did not converge or met a "
-        "singular Jacobian): loosen rtol/atol, try the other root finder, or check the model for "
+        "singular Jacobian): loosen rtol/atol, try another root finder (an ESDIRK solver's option, "
+        "e.g. diffrax.Kvaerno5(root_finder=diffrax.VeryChord(...))) or solver, or check the model for "
         "NaN or negative states.")
     times_out_of_range = (
         "the ODE solve's times are out of order: t1 must exceed t0 and every output time lie within "

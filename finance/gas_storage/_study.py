@@ -47,7 +47,9 @@ class StudySettings(Settings):
     `bump` (also run central bump-and-revalue on the 365 deltas); `repeats` (timed runs per
     median after a warm-up run; None: 5 in deterministic mode, where a pass takes milliseconds,
     1 in stochastic mode, where it takes seconds); `progress` (show a progress bar); `checkpoint_path` and `resume` (of the training,
-    see `snapo_ode.train`)."""
+    see `snapo_ode.train`). Defaults that depend on other fields are filled when the settings are
+    built: `replace(head=...)` or `replace(stochastic=...)` keeps them; build new settings to get
+    the other head's or mode's defaults."""
 
     stochastic: bool = eqx.field(static=True, default=False)
     paths: int = eqx.field(static=True, default=1000)

@@ -21,6 +21,7 @@ from jax.flatten_util import ravel_pytree
 
 from .base import AbstractSolver, output_times, solution
 
+
 class AbstractHostSolver(AbstractSolver):
     """A peer solver on the host: values at given times only, no derivative."""
 

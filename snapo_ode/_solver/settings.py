@@ -44,7 +44,8 @@ _REGISTRY: dict[str, _Registered] = {}
 def register_solver(name: str, make: Callable[[], Solver], *, stiff: bool) -> None:
     """Make `make()` (a solver object with its default options) available by `name` wherever a
     solver is chosen by name: `SolverSettings(solver=name)`, the CLI flags and JSON files.
-    `stiff`: whether it is meant for stiff problems (listed in `STIFF_SOLVERS`' sense)."""
+    `stiff`: whether it is meant for stiff problems (`solver_names(stiff=True)`; the host peers
+    are, though `STIFF_SOLVERS` lists only the built-ins that run inside a program)."""
     if not name or name != name.strip().lower():
         raise InputError(f"solver name {name!r}: lower case, no surrounding spaces.")
     solver = make()
