@@ -55,7 +55,7 @@ def test_a_registered_solver_is_a_name_like_the_built_in_ones(rk45):
 def test_an_unknown_name_is_refused_listing_the_registered_ones(rk45):
     with pytest.raises(InputError, match=r"solver = 'rk45' is not one of: .*'scipy-rk45'"):
         solver_from_name("rk45")
-    with pytest.raises(InputError, match="nonstiff_solver = 'Tsit5': not a solver|nonstiff_solver = 'Tsit5' is not"):
+    with pytest.raises(InputError, match="nonstiff_solver = 'Tsit5' is not one of"):
         SolverSettings(nonstiff_solver="Tsit5")
     with pytest.raises(InputError, match="lower case"):
         register_solver("My Solver", ScipyRK45, stiff=False)

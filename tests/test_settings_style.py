@@ -38,6 +38,8 @@ def test_replace_validates_again_naming_the_field(build, message):
 
 @pytest.mark.parametrize(("build", "message"), [
     (lambda: SolverSettings(solver="bdf", differentiation="backsolve"), "'bdf' with differentiation = 'backsolve'"),
+    (lambda: SolverSettings(nonstiff_solver="bdf", differentiation="backsolve"),
+     "nonstiff_solver = 'bdf' with differentiation = 'backsolve'"),
     (lambda: StudySettings(split_actions=True, head="fraction"), "split_actions = True with head = 'fraction'"),
     (lambda: DesignSpaceSettings(x="r1_temperature", y="r1_temperature"), "y = 'r1_temperature' is not one of"),
     (lambda: DesignSpaceSettings(points=3, verify_points=10), "verify_points = 10"),

@@ -249,9 +249,6 @@ class BDF(AbstractSolver):
     `jax.jacfwd`; under "reverse" forward mode raises JAX's custom_vjp error)."""
 
     def solve(self, settings, vector_field, t0, t1, y0, args, saveat, jacobian) -> diffrax.Solution:
-        if settings.differentiation == "backsolve":
-            raise InputError("solver = 'bdf' with differentiation = 'backsolve': the BDF solver differentiates "
-                             "its own steps; use differentiation = 'reverse' or 'forward'.")
         ts = jnp.asarray(output_times(self, saveat, t1), float)
         y0 = jax.tree.map(lambda x: x if jnp.issubdtype(jnp.result_type(x), jnp.inexact) else jnp.asarray(x, float), y0)
         if not any(isinstance(x, jax.core.Tracer) for x in (t0, t1, ts)) and not (

@@ -49,7 +49,7 @@ def register_solver(name: str, make: Callable[[], Solver], *, stiff: bool) -> No
     if not name or name != name.strip().lower():
         raise InputError(f"solver name {name!r}: lower case, no surrounding spaces.")
     solver = make()
-    if not isinstance(solver, (AbstractSolver, diffrax.AbstractAdaptiveSolver)):
+    if not isinstance(solver, Solver):
         raise InputError(f"solver {name!r}: make() returned {type(solver).__name__}, not a diffrax adaptive solver "
                          "or a snapo_ode AbstractSolver.")
     _REGISTRY[name] = _Registered(make, type(solver), stiff)
@@ -88,7 +88,7 @@ def _as_solver(value, field: str) -> Solver:
     """A solver name (the CLI and JSON edge) or object, as an object."""
     if isinstance(value, str):
         return solver_from_name(value, field)
-    if isinstance(value, (AbstractSolver, diffrax.AbstractAdaptiveSolver)):
+    if isinstance(value, Solver):
         return value
     raise InputError(f"{field} = {value!r}: not a solver; allowed: a name ({', '.join(solver_names())}) or a "
                      "solver object (a diffrax adaptive solver or a snapo_ode AbstractSolver).")
@@ -168,14 +168,10 @@ class SolverSettings(Settings):
         check_count("max_steps", self.max_steps, 1)
         if self.checkpoints is not None:
             check_count("checkpoints", self.checkpoints, 1)
-        if self.differentiation == "backsolve" and isinstance(self.solver, BDF):
-            raise InputError("solver = 'bdf' with differentiation = 'backsolve': the BDF solver differentiates "
-                             "its own steps; use differentiation = 'reverse' or 'forward'.")
-
-    @property
-    def solver_name(self) -> str:
-        """`solver`'s registered name."""
-        return solver_name(self.solver)
+        for field in ("solver", "nonstiff_solver"):
+            if self.differentiation == "backsolve" and isinstance(getattr(self, field), BDF):
+                raise InputError(f"{field} = 'bdf' with differentiation = 'backsolve': the BDF solver "
+                                 "differentiates its own steps; use differentiation = 'reverse' or 'forward'.")
 
     def controller(self) -> diffrax.PIDController:
         return diffrax.PIDController(rtol=self.rtol, atol=self.atol, pcoeff=self.pcoeff, icoeff=self.icoeff)
