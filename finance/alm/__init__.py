@@ -3,8 +3,9 @@ sensitivities of its objective to every risk factor from one reverse pass.
 
 Layers: `_market` (curve, drivers, correlation) -> `_liabilities`, `_assets` -> `_factors` (the
 named risk factors) -> `_policy` -> `_model` (effects, monthly simulation, objective) ->
-`_sensitivities` (the objective of the reported factors, how the baselines batch) -> `_study`
-(training, baselines, typed results) -> `_bench`, `_cli`. See docs/alm.md. Public names load on
+`_units`, `_liability_file`, `_fund_file` (a fund in files) -> `_sensitivities` (the objective of
+the reported factors, how the baselines batch) -> `_study` (training, baselines, typed results)
+-> `_bench`, `_cli`. See docs/alm.md. Public names load on
 first use (see `snapo_ode.lazy_exports`).
 """
 
@@ -13,9 +14,12 @@ from snapo_ode import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._assets": ("MarketState", "gross_returns"),
     "._bench": ("format_table", "scaling_rows", "write_scaling"),
-    "._factors": ("GROUPS", "FactorLayout", "check_factors", "default_factors", "factor_names", "layout_for",
-                  "named_sensitivities", "split_reported"),
-    "._liabilities": ("default_liability_cash_flows", "key_rate_profile", "liability_value", "monthly_cash_flows"),
+    "._factors": ("DEFAULT_MIX", "GROUPS", "FactorLayout", "check_factors", "default_factors", "factor_names",
+                  "holdings_at_funding_ratio", "layout_for", "named_sensitivities", "split_reported"),
+    "._fund_file": ("Fund", "FundFile", "load_fund", "sample_fund_path"),
+    "._liabilities": ("LiabilitySchedule", "bucket_schedule", "default_liability_cash_flows", "key_rate_profile",
+                      "liability_value", "monthly_cash_flows", "row_schedule"),
+    "._liability_file": ("Liabilities", "load_liabilities"),
     "._market": ("ASSETS", "Market", "check_correlation", "correlated_shocks", "default_correlation", "driver_names",
                  "interpolation_weights", "key_tenors"),
     "._model": ("EFFECTS", "ALMConfig", "ALMProblem", "Outcome", "objective", "simulate"),
@@ -24,6 +28,6 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._sensitivities": ("BUMP_RELATIVE_STEP", "chunk_size", "objective_of_reported"),
     "._report": ("alm_report", "build_alm_report"),
     "._results": ("ALMStudy", "Evaluation", "SensitivityMeasurement"),
-    "._study": ("Study", "baselines", "build_study", "evaluate",
-                "liability_duration", "measure_sensitivities", "run_alm", "scenarios", "train_policy"),
+    "._study": ("Study", "baselines", "build_fund_study", "build_study", "evaluate", "liability_duration",
+                "measure_sensitivities", "run_alm", "scenarios", "study_for", "train_policy"),
 })

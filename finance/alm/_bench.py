@@ -13,7 +13,7 @@ from snapo_ode import format_table as markdown_table
 
 from ._factors import layout_for
 from ._policy import NeuralRebalancing
-from ._study import build_study, check_size, measure_sensitivities, scenarios
+from ._study import check_size, measure_sensitivities, scenarios, study_for
 
 DEFAULT_COUNTS = (10, 50, 100, 500, 1000, 2000)
 COLUMNS = (
@@ -26,25 +26,27 @@ COLUMNS = (
 )
 
 
-def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: int = 120,
-                 repeats: int = 3, seed: int = 0, progress: bool = True, mesh=None) -> list[dict]:
-    """One row per N in `counts`: median seconds of the three methods (bump and forward mode
-    run once after the first call when N > 100, `repeats` times otherwise), the speedup of the
-    adjoint over the bump, its target N/4, and the largest relative differences. `mesh`: the
-    devices the paths split over."""
+def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: int | None = None,
+                 repeats: int = 3, seed: int = 0, progress: bool = True, mesh=None, fund=None) -> list[dict]:
+    """One row per N in `counts` (120 months unless `horizon_months`), or one row for `fund`
+    (`load_fund`; over its horizon unless `horizon_months`): median seconds of the three methods
+    (bump and forward mode run once after the first call when N > 100, `repeats` times
+    otherwise), the speedup of the adjoint over the bump, its target N/4, and the largest
+    relative differences. `mesh`: the devices the paths split over."""
     check_count("paths", n_paths)
     check_count("repeats", repeats)
-    for n in counts:
-        check_size(layout_for(n), horizon_months, n_paths)
+    if fund is None:
+        for n in counts:
+            check_size(layout_for(n), 120 if horizon_months is None else horizon_months, n_paths)
     rows = []
-    for n in tqdm(counts, desc="bench alm", disable=not progress):
-        study = build_study(n, horizon_months=horizon_months)
+    for n in tqdm((None,) if fund is not None else counts, desc="bench alm", disable=not progress):
+        study = study_for(n, fund, horizon_months)
         key = jax.random.key(seed)
         shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh)
         policy = NeuralRebalancing(study.market, key=jax.random.fold_in(key, 1))
-        measured = measure_sensitivities(study, policy, shocks, repeats=repeats,
-                                         baseline_repeats=repeats if n <= 100 else 1)
         layout = study.layout
+        measured = measure_sensitivities(study, policy, shocks, repeats=repeats,
+                                         baseline_repeats=repeats if layout.n_risk_factors <= 100 else 1)
         rows.append(dict(
             n_risk_factors=layout.n_risk_factors, n_tenors=layout.n_tenors, n_equities=layout.n_equities,
             n_liability=layout.n_liability, adjoint_seconds=measured.adjoint_seconds,

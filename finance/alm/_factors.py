@@ -14,7 +14,7 @@ import numpy as np
 from snapo_ode import InputError, check_finite, check_range
 
 from ._assets import initial_prices
-from ._liabilities import bucket_start_months, default_liability_cash_flows, initial_liability_value
+from ._liabilities import LiabilitySchedule, bucket_schedule, default_liability_cash_flows, initial_liability_value
 from ._market import ASSETS, Market
 
 GROUPS = (
@@ -81,11 +81,28 @@ def layout_for(n_risk_factors: int) -> FactorLayout:
     return small._replace(n_liability=n - small.n_risk_factors)
 
 
+DEFAULT_MIX = dict(cash=0.05, bond_short=0.15, bond_long=0.30, inflation_linked=0.10, credit=0.10, equity=0.30)
+
+
+def holdings_at_funding_ratio(factors: dict, market: Market, funding_ratio: float, mix: dict,
+                              schedule: LiabilitySchedule | None = None) -> np.ndarray:
+    """Units held of each asset (cash, the four bond buckets, then each equity index), shape
+    (5 + n_equities,), so that the fund starts at `funding_ratio` on the initial curve with the
+    asset classes' values in the proportions `mix` (keys `ASSETS`, summing to 1; the equity share
+    split equally over the indices)."""
+    liability = initial_liability_value(factors, market, schedule)
+    values = funding_ratio * liability * np.array([mix[asset] for asset in ASSETS])
+    prices = np.asarray(initial_prices(factors, market, credit=True))
+    equity_value = values[-1] / market.n_equities
+    return np.concatenate([values[:-1] / prices[:len(ASSETS) - 1], equity_value / np.asarray(factors["equity_levels"])])
+
+
 def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: float = 1.1) -> dict:
     """Plausible values of every factor group (reported or not) as float64 numpy arrays.
 
-    The holdings are set so the fund starts at `funding_ratio` on the initial curve, in a mix of
-    5% cash, 15% short bonds, 30% long bonds, 10% inflation-linked, 10% credit, 30% equities.
+    The holdings are set so the fund starts at `funding_ratio` on the initial curve, in the mix
+    `DEFAULT_MIX`: 5% cash, 15% short bonds, 30% long bonds, 10% inflation-linked, 10% credit,
+    30% equities.
     """
     tenors = market.tenors
     key_rates = 0.025 + 0.015 * (1.0 - np.exp(-tenors / 7.0))
@@ -101,13 +118,7 @@ def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: floa
         spread_vol=np.array(0.004),
         liability_cash_flows=default_liability_cash_flows(layout.n_liability),
     )
-    liability = initial_liability_value(factors, market)
-    mix = np.array([0.05, 0.15, 0.30, 0.10, 0.10, 0.30])
-    values = funding_ratio * liability * mix
-    prices = np.asarray(initial_prices(factors, market, credit=True))
-    equity_value = values[-1] / layout.n_equities
-    factors["holdings"] = np.concatenate([values[:-1] / prices[:len(ASSETS) - 1],
-                                          equity_value / factors["equity_levels"]])
+    factors["holdings"] = holdings_at_funding_ratio(factors, market, funding_ratio, DEFAULT_MIX)
     return factors
 
 
@@ -153,10 +164,13 @@ def tenor_label(tenor: float) -> str:
     return f"{tenor:.3g}y"
 
 
-def factor_names(layout: FactorLayout, market: Market) -> dict[str, list[str]]:
-    """The name of every entry of every group, in the order of `np.ravel(factors[group])`."""
+def factor_names(layout: FactorLayout, market: Market, schedule: LiabilitySchedule | None = None) -> dict[str, list[str]]:
+    """The name of every entry of every group, in the order of `np.ravel(factors[group])`; the
+    liability rows named by `schedule` (default `bucket_schedule(layout.n_liability)`), the
+    equity indices by `market.equity_names`."""
+    schedule = bucket_schedule(layout.n_liability) if schedule is None else schedule
     tenor_names = [tenor_label(t) for t in market.tenors]
-    equities = [f"equity_{e}" for e in range(layout.n_equities)]
+    equities = list(market.equity_names)
     return dict(
         key_rates=[f"key_rate_{t}" for t in tenor_names],
         rate_vols=[f"rate_vol_{t}" for t in tenor_names],
@@ -166,15 +180,16 @@ def factor_names(layout: FactorLayout, market: Market) -> dict[str, list[str]]:
         inflation_vol=["inflation_vol"],
         spread=["spread"],
         spread_vol=["spread_vol"],
-        liability_cash_flows=[f"liability_cash_flow_month_{m + 1}"
-                              for m in bucket_start_months(layout.n_liability)],
+        liability_cash_flows=[f"liability_cash_flow_{name}" for name in schedule.names],
         holdings=[f"holding_{a}" for a in ASSETS[:-1]] + [f"holding_{e}" for e in equities],
     )
 
 
-def named_sensitivities(gradient: dict, layout: FactorLayout, market: Market) -> dict[str, float]:
-    """Flatten a gradient over the reported groups into `{factor name: value}`."""
-    names = factor_names(layout, market)
+def named_sensitivities(gradient: dict, layout: FactorLayout, market: Market,
+                        schedule: LiabilitySchedule | None = None) -> dict[str, float]:
+    """Flatten a gradient over the reported groups into `{factor name: value}` (names as
+    `factor_names` gives them)."""
+    names = factor_names(layout, market, schedule)
     out = {}
     for group in layout.reported:
         for name, value in zip(names[group], np.ravel(np.asarray(gradient[group])), strict=True):

@@ -1,5 +1,5 @@
-"""Liabilities: monthly benefit cash flows on a grid of buckets, a default from an age profile,
-and their value on the simulated curve.
+"""Liabilities: monthly benefit cash flows on a schedule of rows (buckets of months, optionally
+per cohort), a default from an age profile, and their value on the simulated curve.
 
 A cash flow at maturity tau is mapped onto the two neighbouring key tenors by linear
 interpolation in maturity (cash-flow mapping), so the liability value on a path is
@@ -7,6 +7,8 @@ interpolation in maturity (cash-flow mapping), so the liability value on a path 
 the length of the liability grid. The mapping depends on the cash flows and the month only, not
 on the path, and is computed once per evaluation.
 """
+
+from typing import NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
@@ -33,6 +35,65 @@ def bucket_of_month(n_buckets: int) -> np.ndarray:
 def bucket_start_months(n_buckets: int) -> np.ndarray:
     """The first month (0-based) of each bucket, shape (n_buckets,)."""
     return np.searchsorted(bucket_of_month(n_buckets), np.arange(n_buckets))
+
+
+class LiabilitySchedule(NamedTuple):
+    """Which liability row pays in which month: the rows are the liability factors (one cash
+    flow each [million/month], paid in every month the row covers) and their sensitivities.
+
+    `payers`: for each layer, the row paying in each month of the run-off (`n_rows` where none
+    does), shape (layers, run_off_months) as tuples (static under `jit`); several layers where
+    rows overlap in time (cohorts). `names`: each row's name, as factor names end
+    ("month_13", "month_13_cohort_active")."""
+
+    payers: tuple[tuple[int, ...], ...]
+    names: tuple[str, ...]
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.names)
+
+    @property
+    def run_off_months(self) -> int:
+        return len(self.payers[0])
+
+    def monthly(self, cash_flows) -> jnp.ndarray:
+        """The benefit paid in each month of the run-off [million/month], shape (run_off_months,),
+        from the rows' `cash_flows`, shape (n_rows,)."""
+        cash_flows = jnp.asarray(cash_flows)
+        padded = jnp.concatenate([cash_flows, jnp.zeros(1, cash_flows.dtype)])
+        layers = np.asarray(self.payers)
+        total = padded[layers[0]]
+        for layer in layers[1:]:
+            total = total + padded[layer]
+        return total
+
+
+def bucket_schedule(n_buckets: int) -> LiabilitySchedule:
+    """The built-in fund's schedule: `n_buckets` buckets of about equal length over the run-off
+    (`bucket_of_month`), one layer."""
+    return LiabilitySchedule((tuple(int(b) for b in bucket_of_month(n_buckets)),),
+                             tuple(f"month_{m + 1}" for m in bucket_start_months(n_buckets)))
+
+
+def row_schedule(first_months, last_months, cohorts=None) -> LiabilitySchedule:
+    """A schedule of rows paying from month `first_months[i]` to `last_months[i]` (1-based,
+    inclusive), each of cohort `cohorts[i]` (None: one cohort); rows of one cohort must not
+    overlap (checked by the reader of the file). Layers are filled greedily, so rows that do
+    not overlap share one."""
+    first, last = np.asarray(first_months, int), np.asarray(last_months, int)
+    run_off = int(last.max())
+    layers: list[np.ndarray] = []
+    for row in np.argsort(first, kind="stable"):
+        span = slice(first[row] - 1, last[row])
+        layer = next((layer for layer in layers if np.all(layer[span] == len(first))), None)
+        if layer is None:
+            layer = np.full(run_off, len(first))
+            layers.append(layer)
+        layer[span] = row
+    suffix = [""] * len(first) if cohorts is None else [f"_cohort_{cohort}" for cohort in cohorts]
+    return LiabilitySchedule(tuple(tuple(int(r) for r in layer) for layer in layers),
+                             tuple(f"month_{f}{s}" for f, s in zip(first, suffix)))
 
 
 def gompertz_survival(age, years):
@@ -62,16 +123,20 @@ def default_liability_cash_flows(n_buckets: int, *, first_year_benefit: float = 
     return np.bincount(buckets, weights=monthly) / np.bincount(buckets)
 
 
-def monthly_cash_flows(liability_cash_flows) -> jnp.ndarray:
-    """Expand bucket cash flows, shape (n_buckets,), to one per month of the run-off."""
-    return jnp.asarray(liability_cash_flows)[bucket_of_month(np.shape(liability_cash_flows)[0])]
+def monthly_cash_flows(liability_cash_flows, schedule: LiabilitySchedule | None = None) -> jnp.ndarray:
+    """Expand the rows' cash flows, shape (n_rows,), to one per month of the run-off, by
+    `schedule` (default: `bucket_schedule` of as many buckets)."""
+    if schedule is None:
+        schedule = bucket_schedule(np.shape(liability_cash_flows)[0])
+    return schedule.monthly(liability_cash_flows)
 
 
-def key_rate_profile(liability_cash_flows, market: Market, n_months: int) -> jnp.ndarray:
+def key_rate_profile(liability_cash_flows, market: Market, n_months: int,
+                     schedule: LiabilitySchedule | None = None) -> jnp.ndarray:
     """The outstanding cash flows mapped onto the key tenors at each month-end, shape
     (n_months + 1, n_tenors): row t maps the flows paid after month t, at maturities
-    (m - t) / 12 years. Linear in the cash flows."""
-    monthly = monthly_cash_flows(liability_cash_flows)
+    (m - t) / 12 years. Linear in the cash flows; `schedule` as in `monthly_cash_flows`."""
+    monthly = monthly_cash_flows(liability_cash_flows, schedule)
     run_off = monthly.shape[0]
     mapping = interpolation_weights(np.arange(1, run_off + 1) * MONTH, market.tenors)
     padded = jnp.concatenate([monthly, jnp.zeros(n_months + 1, monthly.dtype)])
@@ -98,8 +163,8 @@ def liability_value(profile_row, key_rates, tenors, *, indexation=None):
     return (discount * (1.0 - fraction + fraction * indexed)) @ profile_row
 
 
-def initial_liability_value(factors: dict, market: Market) -> float:
+def initial_liability_value(factors: dict, market: Market, schedule: LiabilitySchedule | None = None) -> float:
     """The liability value [million] on the initial curve, without indexation."""
-    profile = key_rate_profile(factors["liability_cash_flows"], market, 0)[0]
+    profile = key_rate_profile(factors["liability_cash_flows"], market, 0, schedule)[0]
     rates = jnp.asarray(factors["key_rates"])[None, :]
     return float(liability_value(profile, rates, market.tenors)[0])

@@ -134,6 +134,8 @@ class Market(eqx.Module):
     - `credit_loss_fraction`: share of the credit spread lost to defaults (the rest is earned).
     - `weight_low`, `weight_high`: per-asset portfolio weight bounds, shape (6,) in the order of
       `ASSETS`; they must admit weights summing to 1.
+    - `equity_names`: the indices' names, as factor names and reports show them (default
+      "equity_0", "equity_1", ...).
 
     **Raises:** `InputError` naming the field for a bad correlation, negative speeds or
     maturities, or bounds that cannot sum to 1.
@@ -152,6 +154,7 @@ class Market(eqx.Module):
     credit_loss_fraction: float = eqx.field(static=True)
     weight_low: tuple[float, ...] = eqx.field(static=True)
     weight_high: tuple[float, ...] = eqx.field(static=True)
+    equity_names: tuple[str, ...] = eqx.field(static=True)
 
     def __init__(
         self,
@@ -169,6 +172,7 @@ class Market(eqx.Module):
         credit_loss_fraction: float = 0.4,
         weight_low=(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
         weight_high=(0.3, 0.6, 0.9, 0.5, 0.3, 0.7),
+        equity_names=None,
     ):
         tenors = check_range("tenors", tenors, 0.0, low_open=True)
         if tenors.ndim != 1 or np.any(np.diff(tenors) <= 0):
@@ -214,6 +218,10 @@ class Market(eqx.Module):
         self.credit_loss_fraction = float(credit_loss_fraction)
         self.weight_low = tuple(map(float, low))
         self.weight_high = tuple(map(float, high))
+        names = tuple(f"equity_{e}" for e in range(n_equities)) if equity_names is None else tuple(equity_names)
+        if len(names) != n_equities or len(set(names)) != n_equities:
+            raise InputError(f"equity_names = {list(names)}: expected {n_equities} distinct names.")
+        self.equity_names = names
 
     @property
     def tenors(self) -> np.ndarray:

@@ -27,7 +27,7 @@ from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_range,
 
 from ._assets import MarketState, gross_returns, initial_prices, zero_rate
 from ._factors import FactorLayout
-from ._liabilities import key_rate_profile, liability_value, monthly_cash_flows
+from ._liabilities import LiabilitySchedule, bucket_schedule, key_rate_profile, liability_value
 from ._market import MONTH, Market
 from ._policy import AbstractRebalancing
 
@@ -84,7 +84,8 @@ class ALMConfig(Settings):
 
 class ALMProblem(eqx.Module):
     """Everything fixed about one study: market structure, factor layout, active effects,
-    effect parameters and horizon.
+    effect parameters, horizon and the liability rows' `liabilities` schedule (None: the built-in
+    fund's buckets, `bucket_schedule(layout.n_liability)`).
 
     **Raises:** `InputError` for `horizon_months` outside [1, 600].
     """
@@ -94,8 +95,17 @@ class ALMProblem(eqx.Module):
     scene: Scene
     config: ALMConfig
     horizon_months: int = eqx.field(static=True)
+    liabilities: LiabilitySchedule | None = eqx.field(static=True, default=None)
+
+    @property
+    def schedule(self) -> LiabilitySchedule:
+        """Which liability row pays in which month."""
+        return bucket_schedule(self.layout.n_liability) if self.liabilities is None else self.liabilities
 
     def __check_init__(self):
+        if self.liabilities is not None and self.liabilities.n_rows != self.layout.n_liability:
+            raise InputError(f"the liability schedule has {self.liabilities.n_rows} rows but the layout "
+                             f"{self.layout.n_liability} liability factors.")
         if not isinstance(self.horizon_months, (int, np.integer)) or not (
                 1 <= self.horizon_months <= MAX_HORIZON_MONTHS):
             raise InputError(f"horizon_months = {self.horizon_months!r}; allowed: an integer in "
@@ -142,8 +152,9 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
     tenors = jnp.asarray(market.tenors)
     loadings = jnp.asarray(market.loadings())
     n_rate, n_equity = loadings.shape[1], market.n_equities
-    profile = key_rate_profile(factors["liability_cash_flows"], market, horizon)
-    benefits = monthly_cash_flows(factors["liability_cash_flows"])
+    schedule = problem.schedule
+    profile = key_rate_profile(factors["liability_cash_flows"], market, horizon, schedule)
+    benefits = schedule.monthly(factors["liability_cash_flows"])
     benefits = jnp.concatenate([benefits, jnp.zeros(horizon, benefits.dtype)])[:horizon]
     key_rates0 = jnp.asarray(factors["key_rates"])
     inflation0 = jnp.asarray(factors["inflation"])

@@ -17,7 +17,7 @@ from ._factors import factor_names, named_sensitivities
 from ._market import ASSETS, MONTH
 from ._model import simulate
 from ._sensitivities import PATH_SPECS
-from ._study import baselines, build_study, run_alm
+from ._study import baselines, run_alm, study_for
 
 BASIS_POINT = 1e-4
 # The ladder's groups: (group, shift per entry, the shift in words). Rates move by a basis point;
@@ -76,23 +76,24 @@ def ladder(objective: dict, funding_ratio: dict, names: dict, reported) -> dict:
     return out
 
 
-def build_alm_report(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int = 120,
+def build_alm_report(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int | None = None,
                      train_steps: int = 300, train_paths: int = 256, bump: bool = True, seed: int = 0,
-                     progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None) -> dict:
-    """Every number of the ALM report, as the JSON document's data (see docs/alm.md); `mesh`: the
-    devices the paths split over."""
+                     progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None,
+                     fund=None) -> dict:
+    """Every number of the ALM report, as the JSON document's data (see docs/alm.md), for the
+    built-in fund or `fund` (`load_fund`); `mesh`: the devices the paths split over."""
     import time
 
     start = time.perf_counter()
     result = run_alm(n_risk_factors, n_paths=n_paths, horizon_months=horizon_months, train_steps=train_steps, bump=bump,
                      train_paths=train_paths, seed=seed, progress=progress, checkpoint_path=checkpoint_path,
-                     resume=resume, mesh=mesh)
-    study = build_study(n_risk_factors, horizon_months=horizon_months)
+                     resume=resume, mesh=mesh, fund=fund)
+    study = study_for(n_risk_factors, fund, horizon_months)
     timing, (ratio, gradient) = snapo_ode.time_function(
         _mean_funding_ratio_and_gradient, study.problem, result.policy, study.reported, study.fixed, result.shocks,
         mesh_of(result.shocks), repeats=3)
-    funding_sensitivities = named_sensitivities(gradient, study.layout, study.market)
-    names = factor_names(study.layout, study.market)
+    funding_sensitivities = named_sensitivities(gradient, study.layout, study.market, study.problem.schedule)
+    names = factor_names(study.layout, study.market, study.problem.schedule)
     mixes = baselines(study)
     policies = {"trained policy" if result.trained else "untrained policy": result.policy, **mixes}
     data = result.to_json()
@@ -126,6 +127,11 @@ def alm_report(data: dict, provenance: dict) -> Report:
                           for group, names in data["factor_groups"].items() for name in names]})
 
 
-def report_provenance(n_risk_factors: int, settings: dict, command=None) -> dict:
-    return snapo_ode.provenance({"settings": settings, "risk_factors": n_risk_factors}, command=command)
+def report_provenance(n_risk_factors: int, settings: dict, command=None, fund=None) -> dict:
+    """The report's provenance: its settings, N and, for a `fund` (`load_fund`), the SHA-256 of
+    its fund and liability files."""
+    inputs = {"settings": settings, "risk_factors": n_risk_factors}
+    if fund is not None:
+        inputs.update(fund_file=fund.files[0], liability_file=fund.files[1])
+    return snapo_ode.provenance(inputs, command=command)
 

@@ -66,7 +66,8 @@ class ALMStudy(Result):
     """The `snapo alm` study (JSON keys in docs/alm.md): the fund with `n_risk_factors` reported
     factors (`layout`), the policy (trained, or not) evaluated hard and smooth on `paths` fresh
     paths against the fixed-mix `baselines`, and its sensitivities (`measurement`, whose fields
-    sit at the top level of the JSON). Carries the `policy` and the evaluation `shocks`."""
+    sit at the top level of the JSON). Carries the `policy` and the evaluation `shocks`. `fund`:
+    the fund file's name (null: the built-in fund built for N)."""
 
     n_risk_factors: int
     layout: dict
@@ -81,6 +82,7 @@ class ALMStudy(Result):
     measurement: SensitivityMeasurement = field(json=False)
     policy: AbstractRebalancing = field(json=False)
     shocks: jax.Array = field(json=False)
+    fund: str | None = None
 
     def to_json(self) -> dict:
         payload = {**super().to_json(), **self.evaluation.to_json(), **self.measurement.to_json()}
@@ -88,7 +90,8 @@ class ALMStudy(Result):
         return payload
 
     def summary(self) -> str:
-        lines = [f"N = {self.n_risk_factors}: {self.evaluation.summary()} at {self.horizon_months} months"]
+        name = f"{self.fund}, " if self.fund else ""
+        lines = [f"{name}N = {self.n_risk_factors}: {self.evaluation.summary()} at {self.horizon_months} months"]
         lines += [f"  {name}: objective {baseline['objective']:.6f}" for name, baseline in self.baselines.items()]
         lines.append(self.measurement.summary())
         return "\n".join(lines)

@@ -21,6 +21,7 @@ from ._results import ALMStudy, Evaluation, SensitivityMeasurement
 from ._sensitivities import (
     BUMP_RELATIVE_STEP, BUMP_ROWS_PER_CHUNK, FORWARD_ROWS_PER_CHUNK, PATH_SPECS, chunk_size, objective_of_reported)
 from ._factors import (
+    GROUPS,
     FactorLayout,
     check_factors,
     default_factors,
@@ -30,6 +31,7 @@ from ._factors import (
 )
 from ._liabilities import MINIMUM_RUN_OFF_MONTHS, key_rate_profile
 from ._market import Market, correlated_shocks, key_tenors
+from ._fund_file import Fund
 from ._model import EFFECTS, ALMConfig, ALMProblem, simulate
 from ._policy import AbstractRebalancing, NeuralRebalancing, liability_matching, sixty_forty
 
@@ -89,10 +91,27 @@ def build_study(n_risk_factors: int, *, horizon_months: int = 120, effects=None,
     if isinstance(horizon_months, (int, np.integer)):
         check_size(layout, int(horizon_months))
     market = Market(key_tenors(layout.n_tenors), layout.n_equities, correlation=correlation)
-    problem = ALMProblem(market, layout, EFFECTS.scene(effects, without=without),
-                         config or ALMConfig(), horizon_months)
-    values = check_factors(default_factors(layout, market) if factors is None else factors, layout)
-    reported, fixed = split_reported({k: jnp.asarray(v) for k, v in values.items()}, layout)
+    return _assembled(ALMProblem(market, layout, EFFECTS.scene(effects, without=without), config or ALMConfig(),
+                                 horizon_months), default_factors(layout, market) if factors is None else factors)
+
+
+def build_fund_study(fund: Fund, *, horizon_months: int | None = None, effects=None, without=()) -> Study:
+    """The study of a fund read from its files (`load_fund`): every factor group reported (N =
+    key tenors x 2 + indices x 3 + 4 + 5 + liability rows), over its horizon (or
+    `horizon_months`), with its effects (or `effects`, less `without`).
+
+    **Raises:** `InputError` as `build_study`."""
+    require_float64("ALM studies")
+    layout = FactorLayout(fund.market.n_tenors, fund.market.n_equities, fund.schedule.n_rows, GROUPS)
+    horizon = fund.horizon_months if horizon_months is None else horizon_months
+    check_size(layout, horizon)
+    scene = EFFECTS.scene(fund.effects if effects is None else effects, without=without)
+    return _assembled(ALMProblem(fund.market, layout, scene, fund.config, horizon, fund.schedule), fund.factors)
+
+
+def _assembled(problem: ALMProblem, factors: dict) -> Study:
+    values = check_factors(factors, problem.layout)
+    reported, fixed = split_reported({k: jnp.asarray(v) for k, v in values.items()}, problem.layout)
     return Study(problem, reported, fixed)
 
 
@@ -113,7 +132,7 @@ def scenarios(study: Study, n_paths: int, key, mesh=None) -> jax.Array:
 def liability_duration(study: Study) -> float:
     """Macaulay duration [years] of the liabilities on the initial curve."""
     factors = {**study.fixed, **study.reported}
-    profile = np.asarray(key_rate_profile(factors["liability_cash_flows"], study.market, 0)[0])
+    profile = np.asarray(key_rate_profile(factors["liability_cash_flows"], study.market, 0, study.problem.schedule)[0])
     tenors = study.market.tenors
     values = profile * np.exp(-np.asarray(factors["key_rates"]) * tenors)
     return float(np.sum(values * tenors) / np.sum(values))
@@ -208,7 +227,7 @@ def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, 
         timing, (value, gradient) = time_function(adjoint, *args, repeats=repeats)
         seconds, compile_seconds = timing.median_seconds, timing.compile_seconds
     value_timing, _ = time_function(eqx.filter_jit(fn), *args, repeats=repeats)
-    named = named_sensitivities(gradient, study.layout, study.market)
+    named = named_sensitivities(gradient, study.layout, study.market, study.problem.schedule)
     if not np.isfinite(float(value)) or not all(np.isfinite(v) for v in named.values()):
         raise FloatingPointError("the ALM objective or a sensitivity is not finite; check the inputs.")
     baseline = {}
@@ -229,11 +248,22 @@ def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, 
         gradient=gradient, comparison=comparison)
 
 
-def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int = 120,
+def study_for(n_risk_factors: int = 100, fund: Fund | None = None, horizon_months: int | None = None) -> Study:
+    """The built-in fund with `n_risk_factors` factors (`build_study`, 120 months unless
+    `horizon_months`), or `fund` (`build_fund_study`, over its own horizon unless `horizon_months`)."""
+    if fund is None:
+        return build_study(n_risk_factors, horizon_months=120 if horizon_months is None else horizon_months)
+    return build_fund_study(fund, horizon_months=horizon_months)
+
+
+def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int | None = None,
             bump: bool = False, train_steps: int = 0, train_paths: int = 256, seed: int = 0,
-            progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None) -> ALMStudy:
-    """The `snapo alm` study (`checkpoint_path`, `resume`: of the training, see `snapo_ode.train`;
-    `mesh`: the devices the paths are split over, see `snapo_ode.sample_mesh`)."""
+            progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None,
+            fund: Fund | None = None) -> ALMStudy:
+    """The `snapo alm` study of the built-in fund with `n_risk_factors` factors, or of `fund`
+    (`load_fund`; its N follows from its files); `horizon_months` (default: 120, or the fund's);
+    `checkpoint_path`, `resume`: of the training, see `snapo_ode.train`; `mesh`: the devices the
+    paths are split over, see `snapo_ode.sample_mesh`."""
     check_count("paths", n_paths)
     check_count("train_steps", train_steps, low=0)
     check_count("train_paths", train_paths)
@@ -241,7 +271,8 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
         check_divisible("paths", n_paths, mesh)
         if train_steps:
             check_divisible("train_paths", train_paths, mesh)
-    study = build_study(n_risk_factors, horizon_months=horizon_months)
+    study = study_for(n_risk_factors, fund, horizon_months)
+    horizon_months = study.problem.horizon_months
     check_size(study.layout, horizon_months, max(n_paths, train_paths))
     key = jax.random.key(seed)
     shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh)
@@ -259,4 +290,5 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
         evaluation=evaluate(study, policy, shocks),
         baselines={name: evaluate(study, mix, shocks).to_json() for name, mix in baselines(study).items()},
         train_seconds=train_seconds, train_compile_seconds=train_compile,
-        measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks)
+        measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks,
+        fund=None if fund is None else fund.name)

@@ -95,3 +95,33 @@ def validate(model: type[pydantic.BaseModel], data, where: str, text: str | None
         more = f" ({len(errors) - 1} more error{'s' * (len(errors) > 2)})" if len(errors) > 1 else ""
         value = "" if first["type"] == "missing" else f" = {_shorten(first.get('input'))}"
         raise InputError(f"{where}{_line_of(text, first['loc'])}: {field}{value}: {first['msg']}{more}.") from None
+
+
+def strict_yaml(text: str, where: str):
+    """Parse `text` as YAML into plain data (dicts, lists, numbers, strings, dates); `where` names
+    it in errors. Stricter than YAML: a key given twice and aliases (`*name`, which can expand a
+    small file past the memory) are refused; NaN and infinities parse and are left to the schema
+    (`FiniteNumber` refuses them).
+
+    **Raises:** `InputError` with the line for invalid YAML, a duplicate key or an alias."""
+    from ruamel.yaml import YAML, YAMLError
+    from ruamel.yaml.events import AliasEvent
+
+    try:
+        for event in YAML(typ="safe", pure=True).parse(text):
+            if isinstance(event, AliasEvent):
+                raise InputError(f"{where}, line {event.start_mark.line + 1}: a YAML alias (*{event.anchor}); "
+                                 "write the value out instead.")
+        return YAML(typ="safe", pure=True).load(text)
+    except YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        line = f", line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
+        raise InputError(f"{where}{line}: not valid YAML ({' '.join(str(problem).split())}).") from None
+    except RecursionError:
+        raise InputError(f"{where}: nested too deeply to read.") from None
+
+
+FiniteNumber = pydantic.confloat(strict=True, allow_inf_nan=False)
+"""A number in a user file: an integer or a decimal, finite (never NaN, an infinity, a string or a
+boolean)."""
