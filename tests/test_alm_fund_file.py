@@ -135,3 +135,12 @@ def test_snapo_alm_runs_a_fund_file_and_refuses_a_count_beside_it(tmp_path, caps
     assert "liability_cash_flow_month_13_cohort_b" in payload["sensitivities"]
     assert main([*argv, "--risk-factors", "40"], plugins=[register_alm]) == 2
     assert "give one of the two" in capsys.readouterr().err
+
+
+def test_a_ragged_row_and_blank_lines_keep_their_line_numbers(tmp_path):
+    with pytest.raises(InputError, match=r"line 4: cash_flow = 'x'"):
+        alm.load_fund(_fund(tmp_path, "month,cash_flow\n1,2\n\n2,x\n"))
+    with pytest.raises(InputError, match="not a CSV table"):
+        alm.load_fund(_fund(tmp_path, "month,cash_flow\n1,2,3,4\n"))
+    with pytest.raises(InputError, match=r"line 3: cash_flow = ''"):
+        alm.load_fund(_fund(tmp_path, "month,cash_flow\n1,2\n7\n"))

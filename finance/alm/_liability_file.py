@@ -9,17 +9,18 @@ Columns (a header row, then one row per cash flow; names case-sensitive):
   (per month: each of its months pays this; per year: each month pays a twelfth);
 - optional `cohort`: a name; rows of one cohort may not overlap in time, rows of different
   cohorts may.
-Each row becomes one liability factor (its sensitivity: the objective's change per unit of the
+Read with pandas, every cell as text and checked here. Each row becomes one liability factor (its sensitivity: the objective's change per unit of the
 model's million/month paid over the row's months).
 """
 
-import csv
 import datetime
 import io
 import os
+import warnings
 from typing import NamedTuple
 
 import numpy as np
+import pandas as pd
 
 from snapo_ode import DECIMAL, InputError, read_text
 
@@ -76,46 +77,52 @@ def load_liabilities(path: str | os.PathLike, cash_flow_unit: str = "million / m
     header, a value that is not a number, a negative cash flow, overlapping rows of one cohort, a
     run-off past 150 years, or no positive cash flow."""
     scale = per_month_in_millions(cash_flow_unit, f"liability file {path}: cash_flow_unit")
-    reader = csv.DictReader(io.StringIO(read_text(path, "liability"), newline=None))
-    header = [name.strip() for name in reader.fieldnames or []]
-    reader.fieldnames = header
+    # Every cell as text, checked below; blank lines kept, so a row's line is its index + 2; a row
+    # longer than the header is refused (pandas would drop its extra cells with a warning).
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            table = pd.read_csv(io.StringIO(read_text(path, "liability")), dtype=str, keep_default_na=False,
+                                skip_blank_lines=False, skipinitialspace=True, index_col=False)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, pd.errors.ParserWarning) as error:
+        raise InputError(f"liability file {path}: not a CSV table ({' '.join(str(error).split())}).") from None
+    header = [str(name).strip() for name in table.columns]
+    table.columns = header
     period = next((p for p in PERIODS if all(column in header for column in p)), None)
     allowed = {"cash_flow", "cohort", *(column for p in PERIODS for column in p)}
     unknown = [column for column in header if column not in allowed]
     if period is None or "cash_flow" not in header or unknown or sum(p[0] in header for p in PERIODS) > 1:
         raise InputError(f"liability file {path}, line 1: header {header}; expected 'cash_flow', one period "
                          "('month', 'year', 'first_month,last_month' or 'date') and optionally 'cohort'.")
-    flows, first, last, cohorts = [], [], [], []
-    try:
-        for row in reader:
-            where = f"liability file {path}, line {reader.line_num}"
-            if None in row or any(value is None for value in row.values()):
-                raise InputError(f"{where}: expected {len(header)} values ({','.join(header)}).")
-            text = row["cash_flow"].strip()
-            if DECIMAL.fullmatch(text) is None or float(text) < 0:
-                raise InputError(f"{where}: cash_flow = {row['cash_flow']!r}; allowed: a decimal number >= 0.")
-            start, end = _months_of(period[0], row, where, valuation_date)
-            if end > MAX_RUN_OFF_MONTHS:
-                raise InputError(f"{where}: the row pays in month {end}; allowed: up to {MAX_RUN_OFF_MONTHS} "
-                                 "(150 years).")
-            flows.append(float(text) * scale)
-            first.append(start)
-            last.append(end)
-            cohorts.append(row.get("cohort", "").strip())
-    except csv.Error as error:
-        raise InputError(f"liability file {path}, line {reader.line_num}: not a CSV row ({error}).") from None
+    flows, first, last, cohorts, lines = [], [], [], [], []
+    for index, row in enumerate(table.to_dict("records")):
+        if all(not value.strip() for value in row.values()):
+            continue
+        where = f"liability file {path}, line {index + 2}"
+        text = row["cash_flow"].strip()
+        if DECIMAL.fullmatch(text) is None or float(text) < 0:
+            raise InputError(f"{where}: cash_flow = {row['cash_flow']!r}; allowed: a decimal number >= 0.")
+        start, end = _months_of(period[0], row, where, valuation_date)
+        if end > MAX_RUN_OFF_MONTHS:
+            raise InputError(f"{where}: the row pays in month {end}; allowed: up to {MAX_RUN_OFF_MONTHS} "
+                             "(150 years).")
+        flows.append(float(text) * scale)
+        first.append(start)
+        last.append(end)
+        cohorts.append(row.get("cohort", "").strip())
+        lines.append(index + 2)
     if not flows or max(flows) <= 0:
         raise InputError(f"liability file {path}: no positive cash_flow; the funding ratio needs liabilities.")
-    _refuse_overlaps(path, first, last, cohorts)
+    _refuse_overlaps(path, first, last, cohorts, lines)
     return Liabilities(np.asarray(flows), row_schedule(first, last, cohorts if "cohort" in header else None))
 
 
-def _refuse_overlaps(path, first, last, cohorts) -> None:
+def _refuse_overlaps(path, first, last, cohorts, lines) -> None:
     for cohort in dict.fromkeys(cohorts):
-        rows = sorted((f, l, i) for i, (f, l, c) in enumerate(zip(first, last, cohorts)) if c == cohort)
+        rows = sorted((f, l, line) for f, l, c, line in zip(first, last, cohorts, lines) if c == cohort)
         for (f0, l0, i0), (f1, _, i1) in zip(rows, rows[1:]):
             if f1 <= l0:
                 label = f" of cohort {cohort!r}" if cohort else ""
-                raise InputError(f"liability file {path}, line {i1 + 2}: the row{label} pays from month {f1}, which the "
-                                 f"row on line {i0 + 2} already covers (months {f0}-{l0}); add a 'cohort' column for "
+                raise InputError(f"liability file {path}, line {i1}: the row{label} pays from month {f1}, which the "
+                                 f"row on line {i0} already covers (months {f0}-{l0}); add a 'cohort' column for "
                                  "rows that overlap.")
