@@ -47,11 +47,15 @@ def test_an_absent_effect_is_absent_from_the_jaxpr_and_neutral_parameters_change
 
 
 def test_each_effect_matters_at_its_default_parameters():
-    full = alm.build_study(40, horizon_months=6)
+    # The same holdings in every scene, starting below the funding floor (1.1 -> 0.95), so the floor binds.
+    base = alm.build_study(40, horizon_months=6)
+    factors = {**base.fixed, **base.reported}
+    factors["holdings"] = np.asarray(factors["holdings"]) * 0.95 / 1.1
+    full = alm.build_study(40, horizon_months=6, factors=factors)
     fn, args = _objective(full)
     reference = float(fn(*args))
     for effect in NEUTRAL:
-        fn_without, args_without = _objective(alm.build_study(40, horizon_months=6, without=[effect]))
+        fn_without, args_without = _objective(alm.build_study(40, horizon_months=6, without=[effect], factors=factors))
         assert abs(float(fn_without(*args_without)) - reference) > 1e-6, effect
 
 

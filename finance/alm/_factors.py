@@ -85,24 +85,30 @@ DEFAULT_MIX = dict(cash=0.05, bond_short=0.15, bond_long=0.30, inflation_linked=
 
 
 def holdings_at_funding_ratio(factors: dict, market: Market, funding_ratio: float, mix: dict,
-                              schedule: LiabilitySchedule | None = None) -> np.ndarray:
+                              schedule: LiabilitySchedule | None = None, indexation: float | None = None,
+                              credit: bool = True) -> np.ndarray:
     """Units held of each asset (cash, the four bond buckets, then each equity index), shape
-    (5 + n_equities,), so that the fund starts at `funding_ratio` on the initial curve with the
-    asset classes' values in the proportions `mix` (keys `ASSETS`, summing to 1; the equity share
-    split equally over the indices)."""
-    liability = initial_liability_value(factors, market, schedule)
+    (5 + n_equities,), so that the fund starts at `funding_ratio` with the asset classes' values
+    in the proportions `mix` (keys `ASSETS`, summing to 1; the equity share split equally over the
+    indices), its liabilities valued as the simulation values them at the start: on the initial
+    curve, with the `indexation` share indexed (None: the indexation effect is off), the credit
+    bucket at its spread (`credit`: the credit effect is on)."""
+    liability = initial_liability_value(factors, market, schedule, indexation)
     values = funding_ratio * liability * np.array([mix[asset] for asset in ASSETS])
-    prices = np.asarray(initial_prices(factors, market, credit=True))
+    prices = np.asarray(initial_prices(factors, market, credit=credit))
     equity_value = values[-1] / market.n_equities
     return np.concatenate([values[:-1] / prices[:len(ASSETS) - 1], equity_value / np.asarray(factors["equity_levels"])])
 
 
-def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: float = 1.1) -> dict:
+def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: float = 1.1,
+                    indexation: float | None = None, credit: bool = True) -> dict:
     """Plausible values of every factor group (reported or not) as float64 numpy arrays.
 
-    The holdings are set so the fund starts at `funding_ratio` on the initial curve, in the mix
-    `DEFAULT_MIX`: 5% cash, 15% short bonds, 30% long bonds, 10% inflation-linked, 10% credit,
-    30% equities.
+    The holdings are set so the fund starts at `funding_ratio` (its liabilities valued with the
+    `indexation` share indexed, as the simulation values them; None: without indexation; the
+    credit bucket at its spread when `credit`), in
+    the mix `DEFAULT_MIX`: 5% cash, 15% short bonds, 30% long bonds, 10% inflation-linked, 10%
+    credit, 30% equities.
     """
     tenors = market.tenors
     key_rates = 0.025 + 0.015 * (1.0 - np.exp(-tenors / 7.0))
@@ -118,7 +124,8 @@ def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: floa
         spread_vol=np.array(0.004),
         liability_cash_flows=default_liability_cash_flows(layout.n_liability),
     )
-    factors["holdings"] = holdings_at_funding_ratio(factors, market, funding_ratio, DEFAULT_MIX)
+    factors["holdings"] = holdings_at_funding_ratio(factors, market, funding_ratio, DEFAULT_MIX, indexation=indexation,
+                                                    credit=credit)
     return factors
 
 

@@ -26,7 +26,7 @@ from ._factors import DEFAULT_MIX, holdings_at_funding_ratio
 from ._liabilities import LiabilitySchedule
 from ._liability_file import load_liabilities
 from ._market import ASSETS, Market
-from ._model import EFFECTS, ALMConfig, MAX_HORIZON_MONTHS
+from ._model import EFFECTS, ALMConfig, MAX_HORIZON_MONTHS, indexed_share
 from ._units import in_millions
 
 Numbers = list[FiniteNumber]
@@ -77,7 +77,9 @@ class AssetsSection(_Section):
     """The asset classes' maturities, weight bounds, and the starting holdings: either
     `initial_funding_ratio` with the `mix` of the asset classes' values (keys `ASSETS`, summing to
     1), or `holdings`, each asset's market value (cash, the four bond buckets and each equity
-    index by name) in `holdings_unit`."""
+    index by name) in `holdings_unit`. The funding ratio values the liabilities as the
+    simulation does at the start, with the file's effects (its indexed share of the benefits,
+    the credit bucket's spread); the units held stay as set when a study leaves effects out."""
 
     bond_maturities: Bounds = (5.0, 30.0)
     inflation_linked_maturity: FiniteNumber = 20.0
@@ -162,7 +164,8 @@ def _market(section: MarketSection, assets: AssetsSection, where: str) -> Market
         raise InputError(f"{where}: {error}") from None
 
 
-def _holdings(assets: AssetsSection, factors: dict, market: Market, schedule, where: str) -> np.ndarray:
+def _holdings(assets: AssetsSection, factors: dict, market: Market, schedule, config: ALMConfig, scene,
+              where: str) -> np.ndarray:
     if (assets.holdings is None) == (assets.initial_funding_ratio is None):
         raise InputError(f"{where}: assets needs exactly one of initial_funding_ratio (with mix) and holdings.")
     if assets.holdings is not None:
@@ -170,7 +173,8 @@ def _holdings(assets: AssetsSection, factors: dict, market: Market, schedule, wh
         _keys(where, "assets.holdings", assets.holdings, names)
         values = np.array([assets.holdings[name] for name in names]) * in_millions(
             assets.holdings_unit, f"{where}: assets.holdings_unit")
-        return values / np.concatenate([np.asarray(initial_prices(factors, market, credit=True))[:len(ASSETS) - 1],
+        prices = initial_prices(factors, market, credit=scene.has("credit"))
+        return values / np.concatenate([np.asarray(prices)[:len(ASSETS) - 1],
                                         np.asarray(factors["equity_levels"])])
     mix = DEFAULT_MIX if assets.mix is None else assets.mix
     _keys(where, "assets.mix", mix, ASSETS)
@@ -178,7 +182,8 @@ def _holdings(assets: AssetsSection, factors: dict, market: Market, schedule, wh
         raise InputError(f"{where}: assets.mix = {mix}; allowed: weights >= 0 summing to 1.")
     if not 0.0 < assets.initial_funding_ratio <= 10.0:
         raise InputError(f"{where}: assets.initial_funding_ratio = {assets.initial_funding_ratio}; allowed: (0, 10].")
-    return holdings_at_funding_ratio(factors, market, assets.initial_funding_ratio, mix, schedule)
+    return holdings_at_funding_ratio(factors, market, assets.initial_funding_ratio, mix, schedule,
+                                     indexed_share(config, scene), credit=scene.has("credit"))
 
 
 def load_fund(path: str | os.PathLike) -> Fund:
@@ -206,13 +211,13 @@ def load_fund(path: str | os.PathLike) -> Fund:
     liabilities = load_liabilities(liability_path, spec.liabilities.cash_flow_unit,
                                    valuation_date=spec.liabilities.valuation_date)
     factors["liability_cash_flows"] = liabilities.cash_flows
-    factors["holdings"] = _holdings(spec.assets, factors, market, liabilities.schedule, where)
     effects = None if spec.effects is None else tuple(spec.effects)
     try:
         config = ALMConfig(**{k: v for k, v in spec.objective.model_dump().items() if v is not None})
-        EFFECTS.scene(effects)
+        scene = EFFECTS.scene(effects)
     except InputError as error:
         raise InputError(f"{where}: {error}") from None
+    factors["holdings"] = _holdings(spec.assets, factors, market, liabilities.schedule, config, scene, where)
     return Fund(spec.name, market, factors, liabilities.schedule, config, spec.horizon_months, effects,
                 (path, liability_path))
 

@@ -27,7 +27,7 @@ from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_range,
 
 from ._assets import MarketState, gross_returns, initial_prices, zero_rate
 from ._factors import FactorLayout
-from ._liabilities import LiabilitySchedule, bucket_schedule, key_rate_profile, liability_value
+from ._liabilities import LiabilitySchedule, bucket_schedule, initial_liability_value, key_rate_profile, liability_value
 from ._market import MONTH, Market
 from ._policy import AbstractRebalancing
 
@@ -110,6 +110,21 @@ class ALMProblem(eqx.Module):
                 1 <= self.horizon_months <= MAX_HORIZON_MONTHS):
             raise InputError(f"horizon_months = {self.horizon_months!r}; allowed: an integer in "
                              f"[1, {MAX_HORIZON_MONTHS}].")
+
+
+def indexed_share(config: ALMConfig, scene: Scene) -> float | None:
+    """The share of the benefits indexed to inflation, or None when the indexation effect is off."""
+    return config.indexation if scene.has("inflation_indexation") else None
+
+
+def initial_funding_ratio(problem: ALMProblem, factors: dict) -> float:
+    """The funding ratio at the start, assets over liabilities valued as `simulate` values them
+    (the credit bucket at its spread when the credit effect is on, the indexed share of the
+    benefits when indexation is)."""
+    prices = initial_prices(factors, problem.market, credit=problem.scene.has("credit"))
+    assets = float(jnp.sum(jnp.asarray(factors["holdings"]) * prices))
+    return assets / initial_liability_value(factors, problem.market, problem.schedule,
+                                            indexed_share(problem.config, problem.scene))
 
 
 class Outcome(NamedTuple):

@@ -67,7 +67,8 @@ class ALMStudy(Result):
     factors (`layout`), the policy (trained, or not) evaluated hard and smooth on `paths` fresh
     paths against the fixed-mix `baselines`, and its sensitivities (`measurement`, whose fields
     sit at the top level of the JSON). Carries the `policy` and the evaluation `shocks`. `fund`:
-    the fund file's name (null: the built-in fund built for N)."""
+    the fund file's name (null: the built-in fund built for N); `initial_funding_ratio`: assets
+    over liabilities at the start, valued as the simulation values them."""
 
     n_risk_factors: int
     layout: dict
@@ -83,6 +84,7 @@ class ALMStudy(Result):
     policy: AbstractRebalancing = field(json=False)
     shocks: jax.Array = field(json=False)
     fund: str | None = None
+    initial_funding_ratio: float | None = None
 
     def to_json(self) -> dict:
         payload = {**super().to_json(), **self.evaluation.to_json(), **self.measurement.to_json()}
@@ -91,7 +93,8 @@ class ALMStudy(Result):
 
     def summary(self) -> str:
         name = f"{self.fund}, " if self.fund else ""
-        lines = [f"{name}N = {self.n_risk_factors}: {self.evaluation.summary()} at {self.horizon_months} months"]
+        lines = [f"{name}N = {self.n_risk_factors}, starting at a funding ratio of {self.initial_funding_ratio:.4f}: "
+                 f"{self.evaluation.summary()} at {self.horizon_months} months"]
         lines += [f"  {name}: objective {baseline['objective']:.6f}" for name, baseline in self.baselines.items()]
         lines.append(self.measurement.summary())
         return "\n".join(lines)

@@ -32,7 +32,7 @@ from ._factors import (
 from ._liabilities import MINIMUM_RUN_OFF_MONTHS, key_rate_profile
 from ._market import Market, correlated_shocks, key_tenors
 from ._fund_file import Fund
-from ._model import EFFECTS, ALMConfig, ALMProblem, simulate
+from ._model import EFFECTS, ALMConfig, ALMProblem, indexed_share, initial_funding_ratio, simulate
 from ._policy import AbstractRebalancing, NeuralRebalancing, liability_matching, sixty_forty
 
 
@@ -91,8 +91,11 @@ def build_study(n_risk_factors: int, *, horizon_months: int = 120, effects=None,
     if isinstance(horizon_months, (int, np.integer)):
         check_size(layout, int(horizon_months))
     market = Market(key_tenors(layout.n_tenors), layout.n_equities, correlation=correlation)
-    return _assembled(ALMProblem(market, layout, EFFECTS.scene(effects, without=without), config or ALMConfig(),
-                                 horizon_months), default_factors(layout, market) if factors is None else factors)
+    problem = ALMProblem(market, layout, EFFECTS.scene(effects, without=without), config or ALMConfig(), horizon_months)
+    if factors is None:
+        factors = default_factors(layout, market, indexation=indexed_share(problem.config, problem.scene),
+                                  credit=problem.scene.has("credit"))
+    return _assembled(problem, factors)
 
 
 def build_fund_study(fund: Fund, *, horizon_months: int | None = None, effects=None, without=()) -> Study:
@@ -291,4 +294,5 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
         baselines={name: evaluate(study, mix, shocks).to_json() for name, mix in baselines(study).items()},
         train_seconds=train_seconds, train_compile_seconds=train_compile,
         measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks,
-        fund=None if fund is None else fund.name)
+        fund=None if fund is None else fund.name,
+        initial_funding_ratio=initial_funding_ratio(study.problem, {**study.fixed, **study.reported}))
