@@ -56,15 +56,8 @@ def initial_prices(factors: dict, market: Market, *, credit: bool) -> jax.Array:
     return jnp.concatenate([jnp.ones(1), bonds, jnp.asarray(factors["equity_levels"])])
 
 
-def gross_returns(before: MarketState, after: MarketState, equity_shocks, equity_vols,
-                  market: Market, *, credit: bool) -> jax.Array:
-    """Gross monthly returns of the six asset classes on every path, shape (paths, 6).
-
-    **Arguments:** the market at the start and end of the month; `equity_shocks` (paths,
-    n_equities) standard normal; `equity_vols` (n_equities,) [1/sqrt(year)]; `credit`: whether
-    the credit bucket earns its spread and loses `credit_loss_fraction` of it to defaults (else
-    it is a nominal bucket of the credit maturity).
-    """
+def _cash_and_bond_returns(before: MarketState, after: MarketState, market: Market, *, credit: bool) -> jax.Array:
+    """Gross monthly returns of cash and the four bond buckets, shape (paths, 5)."""
     short_rate = zero_rate(before.key_rates, market, MONTH)
     cash = jnp.exp(short_rate * MONTH)
     yields_now, maturities = _bucket_yields(before, market, 0.0, credit)
@@ -74,6 +67,33 @@ def gross_returns(before: MarketState, after: MarketState, equity_shocks, equity
     log_bonds = log_bonds.at[:, 2].add(inflation_accrual)
     if credit:
         log_bonds = log_bonds.at[:, 3].add(-market.credit_loss_fraction * before.spread * MONTH)
+    return jnp.concatenate([cash[:, None], jnp.exp(log_bonds)], axis=1)
+
+
+def index_growth(before: MarketState, equity_shocks, equity_vols, market: Market) -> jax.Array:
+    """Each equity index's gross monthly total return, shape (paths, n_equities): GBM with drift
+    the short rate plus the equity premium."""
+    short_rate = zero_rate(before.key_rates, market, MONTH)
     drift = (short_rate[:, None] + market.equity_premium - 0.5 * equity_vols**2) * MONTH
-    equity = jnp.mean(jnp.exp(drift + equity_vols * jnp.sqrt(MONTH) * equity_shocks), axis=1)
-    return jnp.concatenate([cash[:, None], jnp.exp(log_bonds), equity[:, None]], axis=1)
+    return jnp.exp(drift + equity_vols * jnp.sqrt(MONTH) * equity_shocks)
+
+
+def gross_returns(before: MarketState, after: MarketState, equity_shocks, equity_vols,
+                  market: Market, *, credit: bool) -> jax.Array:
+    """Gross monthly returns of the six asset classes on every path, shape (paths, 6).
+
+    **Arguments:** the market at the start and end of the month; `equity_shocks` (paths,
+    n_equities) standard normal; `equity_vols` (n_equities,) [1/sqrt(year)]; `credit`: whether
+    the credit bucket earns its spread and loses `credit_loss_fraction` of it to defaults (else
+    it is a nominal bucket of the credit maturity).
+    """
+    equity = jnp.mean(index_growth(before, equity_shocks, equity_vols, market), axis=1)
+    return jnp.concatenate([_cash_and_bond_returns(before, after, market, credit=credit), equity[:, None]], axis=1)
+
+
+def scenario_returns(before: MarketState, after: MarketState, index_ratio, market: Market, *,
+                     credit: bool) -> jax.Array:
+    """As `gross_returns`, on a given scenario: the equity sleeve earns the mean of the indices'
+    total-return ratios `index_ratio` (paths, n_equities) over the month."""
+    equity = jnp.mean(index_ratio, axis=1)
+    return jnp.concatenate([_cash_and_bond_returns(before, after, market, credit=credit), equity[:, None]], axis=1)

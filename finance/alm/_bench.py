@@ -6,6 +6,7 @@ import io
 import pathlib
 
 import jax
+import jax.numpy as jnp
 from tqdm.auto import tqdm
 
 from snapo_ode import Column, check_count, write_table
@@ -13,6 +14,7 @@ from snapo_ode import format_table as markdown_table
 
 from ._factors import layout_for
 from ._policy import NeuralRebalancing
+from ._scenarios import on_devices
 from ._study import check_size, measure_sensitivities, scenarios, study_for
 
 DEFAULT_COUNTS = (10, 50, 100, 500, 1000, 2000)
@@ -27,9 +29,11 @@ COLUMNS = (
 
 
 def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: int | None = None,
-                 repeats: int = 3, seed: int = 0, progress: bool = True, mesh=None, fund=None) -> list[dict]:
+                 repeats: int = 3, seed: int = 0, progress: bool = True, mesh=None, fund=None,
+                 scenario_set=None) -> list[dict]:
     """One row per N in `counts` (120 months unless `horizon_months`), or one row for `fund`
-    (`load_fund`; over its horizon unless `horizon_months`): median seconds of the three methods
+    (`load_fund`; over its horizon unless `horizon_months`, on its `scenario_set` where given:
+    `load_scenarios`, every scenario a path): median seconds of the three methods
     (bump and forward mode run once after the first call when N > 100, `repeats` times
     otherwise), the speedup of the adjoint over the bump, its target N/4, and the largest
     relative differences. `mesh`: the devices the paths split over."""
@@ -40,9 +44,10 @@ def scaling_rows(counts=DEFAULT_COUNTS, *, n_paths: int = 128, horizon_months: i
             check_size(layout_for(n), 120 if horizon_months is None else horizon_months, n_paths)
     rows = []
     for n in tqdm((None,) if fund is not None else counts, desc="bench alm", disable=not progress):
-        study = study_for(n, fund, horizon_months)
+        study = study_for(n, fund, horizon_months, scenario_set)
         key = jax.random.key(seed)
-        shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh)
+        shocks = (scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh) if scenario_set is None
+                  else on_devices(jnp.asarray(scenario_set.values), mesh))
         policy = NeuralRebalancing(study.market, key=jax.random.fold_in(key, 1))
         layout = study.layout
         measured = measure_sensitivities(study, policy, shocks, repeats=repeats,

@@ -10,19 +10,47 @@ from snapo_ode.cli import count, CommandLine, add_device_options, add_training_o
 
 FUND_HELP = ("a fund file (YAML; docs/alm.md, 'A fund in files'): its market, liabilities (CSV), assets and "
              "objective, instead of the built-in fund; its N follows from the files")
+SCENARIOS_HELP = ("a scenario set (.csv or .parquet long table scenario,time,variable,value, or .npz; docs/alm.md, "
+                  "'Scenarios from outside') to run the fund on instead of generated paths; its scenarios are the "
+                  "paths (with training, half train and half evaluate); the fund is --fund's or the built-in one's file")
+
+
+def _add_fund_options(parser) -> None:
+    parser.add_argument("--fund", type=pathlib.Path, metavar="FILE", help=FUND_HELP)
+    parser.add_argument("--scenarios", type=pathlib.Path, metavar="FILE", help=SCENARIOS_HELP)
 
 
 def _fund(args):
-    """The fund `--fund` names (read and checked before anything compiles), or None; refuses
-    `--risk-factors` beside it (a fund's N follows from its files)."""
-    if args.fund is None:
+    """The fund `--fund` names (the built-in fund's file where only `--scenarios` is given), read
+    and checked before anything compiles, or None; refuses `--risk-factors` beside either (a
+    fund's N follows from its files)."""
+    scenario_file = getattr(args, "scenarios", None)
+    if args.fund is None and scenario_file is None:
         return None
     if args.risk_factors is not None:
-        raise InputError(f"--risk-factors {args.risk_factors} and --fund {args.fund}: a fund's number of risk "
-                         "factors follows from its files; give one of the two.")
-    from ._fund_file import load_fund
+        raise InputError(f"--risk-factors {args.risk_factors} and --{'fund' if args.fund else 'scenarios'}: a fund's "
+                         "number of risk factors follows from its files; give one of the two.")
+    from ._fund_file import load_fund, sample_fund_path
 
-    return load_fund(args.fund)
+    return load_fund(sample_fund_path() if args.fund is None else args.fund)
+
+
+def _scenario_set(args, fund):
+    """The scenario set `--scenarios` names, for `fund` over the study's horizon, or None;
+    refuses `--paths` beside it (the set's scenarios are the paths)."""
+    if getattr(args, "scenarios", None) is None:
+        return None
+    if args.paths is not None:
+        raise InputError(f"--paths {args.paths} and --scenarios {args.scenarios}: the scenario set's scenarios are the "
+                         "paths; give one of the two.")
+    from ._scenario_file import load_scenarios
+
+    horizon = fund.horizon_months if args.horizon_months is None else args.horizon_months
+    return load_scenarios(args.scenarios, fund.market, horizon, spread=float(fund.factors["spread"]))
+
+
+def _paths(args, default: int) -> int:
+    return default if args.paths is None else args.paths
 
 
 def _risk_factors(args) -> int:
@@ -35,7 +63,10 @@ def _alm(args) -> int:
     from ._study import run_alm
 
     fund = _fund(args)
-    study = run_alm(_risk_factors(args), fund=fund, n_paths=args.paths, horizon_months=args.horizon_months, bump=args.bump,
+    scenario_set = _scenario_set(args, fund)
+    if args.write_scenarios is not None:
+        _write_generated(args, fund)
+    study = run_alm(_risk_factors(args), fund=fund, scenario_set=scenario_set, n_paths=_paths(args, 1000), horizon_months=args.horizon_months, bump=args.bump,
                     train_steps=args.train_steps, train_paths=args.train_paths, seed=args.seed,
                     progress=args.progress and is_writer(), checkpoint_path=args.checkpoint, resume=args.resume,
                     mesh=args.mesh)
@@ -46,11 +77,27 @@ def _alm(args) -> int:
     return 0
 
 
+def _write_generated(args, fund) -> None:
+    """Write the built-in generator's scenarios of this run's evaluation paths to
+    `--write-scenarios` (before the study, so that a long run's set is kept)."""
+    import jax
+
+    from ._scenario_file import write_scenarios
+    from ._scenarios import generated_scenarios
+    from ._study import study_for
+
+    if args.scenarios is not None:
+        raise InputError("--write-scenarios and --scenarios: the generator writes its own scenarios; give one of the two.")
+    study = study_for(_risk_factors(args), fund, args.horizon_months)
+    generated = generated_scenarios(study, _paths(args, 1000), jax.random.fold_in(jax.random.key(args.seed), 2))
+    print(f"written: {write_scenarios(args.write_scenarios, generated, study.market)}")
+
+
 def _bench(args) -> int:
     from ._bench import DEFAULT_COUNTS, format_table, scaling_rows, write_scaling
 
     fund = _fund(args)
-    rows = scaling_rows(args.risk_factors or DEFAULT_COUNTS, n_paths=args.paths, horizon_months=args.horizon_months,
+    rows = scaling_rows(args.risk_factors or DEFAULT_COUNTS, n_paths=_paths(args, 128), scenario_set=_scenario_set(args, fund), horizon_months=args.horizon_months,
                         repeats=args.repeats, seed=args.seed, progress=args.progress, mesh=args.mesh, fund=fund)
     print(format_table(rows))
     print(f"written: {', '.join(map(str, write_scaling(rows, args.out)))}")
@@ -62,17 +109,17 @@ def _report(args) -> int:
 
     from ._report import alm_report, build_alm_report, report_provenance
 
-    settings = dict(n_paths=args.paths, horizon_months=args.horizon_months, train_steps=args.train_steps,
+    settings = dict(n_paths=_paths(args, 1000), horizon_months=args.horizon_months, train_steps=args.train_steps,
                     train_paths=args.train_paths, bump=not args.no_bump, seed=args.seed)
     from snapo_ode import is_writer
 
     fund = _fund(args)
-    data = build_alm_report(_risk_factors(args), fund=fund, progress=args.progress and is_writer(), checkpoint_path=args.checkpoint,
+    data = build_alm_report(_risk_factors(args), fund=fund, scenario_set=_scenario_set(args, fund), progress=args.progress and is_writer(), checkpoint_path=args.checkpoint,
                             resume=args.resume, mesh=args.mesh, **settings)
     if not is_writer():
         return 0
     return publish_report(args, alm_report(data, report_provenance(data["n_risk_factors"], settings, args.command_line,
-                                                                   fund=fund)))
+                                                                   fund=fund, scenario_file=args.scenarios)))
 
 
 def _smoothing_accuracy(args):
@@ -101,8 +148,11 @@ def register_alm(cli: CommandLine) -> None:
                                 "sensitivities to every risk factor (one reverse pass)")
     parser.add_argument("--risk-factors", type=count(), default=None, metavar="N",
                         help="number of reported risk factors of the built-in fund, >= 9 (default 100)")
-    parser.add_argument("--fund", type=pathlib.Path, metavar="FILE", help=FUND_HELP)
-    parser.add_argument("--paths", type=count(), default=1000, help="Monte Carlo paths (default 1000)")
+    _add_fund_options(parser)
+    parser.add_argument("--write-scenarios", type=pathlib.Path, metavar="FILE",
+                        help="also write the generated scenarios of the evaluation paths to FILE (.csv, .parquet or "
+                             ".npz), in --scenarios' format")
+    parser.add_argument("--paths", type=count(), default=None, help="Monte Carlo paths (default 1000)")
     parser.add_argument("--horizon-months", type=count(), default=None, metavar="H",
                         help="horizon in months, 1 to 600 (default 120, or the fund file's)")
     parser.add_argument("--bump", action="store_true",
@@ -118,8 +168,8 @@ def register_alm(cli: CommandLine) -> None:
                              "batched bump-and-revalue vs forward mode (writes bench_alm.{csv,json}, alm_scaling.png, and the table as alm_scaling.{csv,json})")
     bench.add_argument("--risk-factors", type=count(), nargs="+", default=None, metavar="N",
                        help="the counts N of the built-in fund (default 10 50 100 500 1000 2000)")
-    bench.add_argument("--fund", type=pathlib.Path, metavar="FILE", help=FUND_HELP + " (one row)")
-    bench.add_argument("--paths", type=count(), default=128, help="paths (default 128)")
+    _add_fund_options(bench)
+    bench.add_argument("--paths", type=count(), default=None, help="paths (default 128)")
     bench.add_argument("--horizon-months", type=count(), default=None, metavar="H",
                        help="horizon in months (default 120, or the fund file's)")
     bench.add_argument("--repeats", type=count(), default=3, help="timed runs per method")
@@ -131,8 +181,8 @@ def register_alm(cli: CommandLine) -> None:
                                "(one reverse pass each)")
     report.add_argument("--risk-factors", type=count(), default=None, metavar="N",
                         help="reported risk factors of the built-in fund, >= 9 (default 100)")
-    report.add_argument("--fund", type=pathlib.Path, metavar="FILE", help=FUND_HELP)
-    report.add_argument("--paths", type=count(), default=1000, help="Monte Carlo paths of the evaluation (default 1000)")
+    _add_fund_options(report)
+    report.add_argument("--paths", type=count(), default=None, help="Monte Carlo paths of the evaluation (default 1000)")
     report.add_argument("--horizon-months", type=count(), default=None, metavar="H",
                         help="horizon in months (default 120, or the fund file's)")
     report.add_argument("--train-steps", type=count(), default=300, metavar="S", help="policy training steps (default 300)")

@@ -33,6 +33,9 @@ GROUPS = (
 # only these groups are reported; the volatilities and holdings stay fixed inputs.
 MARKET_GROUPS = ("key_rates", "equity_levels", "inflation", "spread", "liability_cash_flows")
 SCALAR_GROUPS = ("inflation", "inflation_vol", "spread", "spread_vol")
+# On a given scenario set the volatilities are the set's, not inputs: these groups are reported,
+# key rates, inflation and spread as shifts of every scenario (docs/alm.md, Scenarios from outside).
+SCENARIO_GROUPS = (*MARKET_GROUPS, "holdings")
 FULL_MINIMUM_LIABILITIES = 12
 SMALLEST = 9
 

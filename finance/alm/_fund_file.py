@@ -26,7 +26,7 @@ from ._factors import DEFAULT_MIX, holdings_at_funding_ratio
 from ._liabilities import LiabilitySchedule
 from ._liability_file import load_liabilities
 from ._market import ASSETS, Market
-from ._model import EFFECTS, ALMConfig, MAX_HORIZON_MONTHS, indexed_share
+from ._model import EFFECTS, MAX_HORIZON_MONTHS, ALMConfig, indexed_share
 from ._units import in_millions
 
 Numbers = list[FiniteNumber]
@@ -78,8 +78,8 @@ class AssetsSection(_Section):
     `initial_funding_ratio` with the `mix` of the asset classes' values (keys `ASSETS`, summing to
     1), or `holdings`, each asset's market value (cash, the four bond buckets and each equity
     index by name) in `holdings_unit`. The funding ratio values the liabilities as the
-    simulation does at the start, with the file's effects (its indexed share of the benefits,
-    the credit bucket's spread); the units held stay as set when a study leaves effects out."""
+    simulation does at the start, with the study's effects (the indexed share of the benefits,
+    the credit bucket's spread) on its initial market (the file's, or a scenario set's start)."""
 
     bond_maturities: Bounds = (5.0, 30.0)
     inflation_linked_maturity: FiniteNumber = 20.0
@@ -120,10 +120,12 @@ class FundFile(_Section):
 
 
 class Fund(NamedTuple):
-    """A fund ready to study (`build_fund_study`): its `name`, `market`, every factor group
-    `factors` (float64 arrays), the liability `schedule`, the `config`, `horizon_months`, the
-    `effects` it names (None: all) and the `files` it was read from (the fund file, then the
-    liability file; reports record their SHA-256)."""
+    """A fund ready to study (`build_fund_study`): its `name`, `market`, every factor group but
+    the holdings `factors` (float64 arrays), the liability `schedule`, the `config`,
+    `horizon_months`, the `effects` it names (None: all), its `assets` section (the holdings
+    follow from it once the study's initial market and effects are known: `fund_holdings`) and
+    the `files` it was read from (the fund file, then the liability file; reports record their
+    SHA-256)."""
 
     name: str
     market: Market
@@ -132,6 +134,7 @@ class Fund(NamedTuple):
     config: ALMConfig
     horizon_months: int
     effects: tuple[str, ...] | None
+    assets: AssetsSection
     files: tuple[pathlib.Path, ...] = ()
 
 
@@ -164,26 +167,35 @@ def _market(section: MarketSection, assets: AssetsSection, where: str) -> Market
         raise InputError(f"{where}: {error}") from None
 
 
-def _holdings(assets: AssetsSection, factors: dict, market: Market, schedule, config: ALMConfig, scene,
-              where: str) -> np.ndarray:
+def _check_assets(assets: AssetsSection, market: Market, where: str) -> None:
     if (assets.holdings is None) == (assets.initial_funding_ratio is None):
         raise InputError(f"{where}: assets needs exactly one of initial_funding_ratio (with mix) and holdings.")
     if assets.holdings is not None:
-        names = (*ASSETS[:-1], *market.equity_names)
-        _keys(where, "assets.holdings", assets.holdings, names)
-        values = np.array([assets.holdings[name] for name in names]) * in_millions(
-            assets.holdings_unit, f"{where}: assets.holdings_unit")
-        prices = initial_prices(factors, market, credit=scene.has("credit"))
-        return values / np.concatenate([np.asarray(prices)[:len(ASSETS) - 1],
-                                        np.asarray(factors["equity_levels"])])
+        _keys(where, "assets.holdings", assets.holdings, (*ASSETS[:-1], *market.equity_names))
+        in_millions(assets.holdings_unit, f"{where}: assets.holdings_unit")
+        return
     mix = DEFAULT_MIX if assets.mix is None else assets.mix
     _keys(where, "assets.mix", mix, ASSETS)
     if min(mix.values()) < 0 or abs(sum(mix.values()) - 1.0) > 1e-9:
         raise InputError(f"{where}: assets.mix = {mix}; allowed: weights >= 0 summing to 1.")
     if not 0.0 < assets.initial_funding_ratio <= 10.0:
         raise InputError(f"{where}: assets.initial_funding_ratio = {assets.initial_funding_ratio}; allowed: (0, 10].")
-    return holdings_at_funding_ratio(factors, market, assets.initial_funding_ratio, mix, schedule,
-                                     indexed_share(config, scene), credit=scene.has("credit"))
+
+
+def fund_holdings(fund: Fund, factors: dict, scene) -> np.ndarray:
+    """The units the fund holds (`holdings`), from its `assets` section: its holdings' money
+    values at the initial prices, or its initial funding ratio and mix, the liabilities valued as
+    the simulation values them under `scene` on the initial market of `factors`."""
+    assets, market = fund.assets, fund.market
+    if assets.holdings is not None:
+        names = (*ASSETS[:-1], *market.equity_names)
+        values = np.array([assets.holdings[name] for name in names]) * in_millions(assets.holdings_unit, "holdings_unit")
+        prices = initial_prices(factors, market, credit=scene.has("credit"))
+        return values / np.concatenate([np.asarray(prices)[:len(ASSETS) - 1],
+                                        np.asarray(factors["equity_levels"])])
+    mix = DEFAULT_MIX if assets.mix is None else assets.mix
+    return holdings_at_funding_ratio(factors, market, assets.initial_funding_ratio, mix, fund.schedule,
+                                     indexed_share(fund.config, scene), credit=scene.has("credit"))
 
 
 def load_fund(path: str | os.PathLike) -> Fund:
@@ -214,11 +226,11 @@ def load_fund(path: str | os.PathLike) -> Fund:
     effects = None if spec.effects is None else tuple(spec.effects)
     try:
         config = ALMConfig(**{k: v for k, v in spec.objective.model_dump().items() if v is not None})
-        scene = EFFECTS.scene(effects)
+        EFFECTS.scene(effects)
     except InputError as error:
         raise InputError(f"{where}: {error}") from None
-    factors["holdings"] = _holdings(spec.assets, factors, market, liabilities.schedule, config, scene, where)
-    return Fund(spec.name, market, factors, liabilities.schedule, config, spec.horizon_months, effects,
+    _check_assets(spec.assets, market, where)
+    return Fund(spec.name, market, factors, liabilities.schedule, config, spec.horizon_months, effects, spec.assets,
                 (path, liability_path))
 
 

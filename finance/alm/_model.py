@@ -25,10 +25,10 @@ import numpy as np
 
 from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_range, smooth
 
-from ._assets import MarketState, gross_returns, initial_prices, zero_rate
+from ._assets import MarketState, gross_returns, initial_prices, scenario_returns, zero_rate
 from ._factors import FactorLayout
 from ._liabilities import LiabilitySchedule, bucket_schedule, initial_liability_value, key_rate_profile, liability_value
-from ._market import MONTH, Market
+from ._market import MONTH, RATE_DRIVERS, Market
 from ._policy import AbstractRebalancing
 
 EFFECTS = EffectCatalogue(
@@ -84,8 +84,10 @@ class ALMConfig(Settings):
 
 class ALMProblem(eqx.Module):
     """Everything fixed about one study: market structure, factor layout, active effects,
-    effect parameters, horizon and the liability rows' `liabilities` schedule (None: the built-in
-    fund's buckets, `bucket_schedule(layout.n_liability)`).
+    effect parameters, horizon, the liability rows' `liabilities` schedule (None: the built-in
+    fund's buckets, `bucket_schedule(layout.n_liability)`) and where the scenarios come from:
+    generated from correlated shocks, or given (`external_scenarios`: `simulate`'s `shocks` are
+    then a scenario set's values, `_scenario_file.ScenarioSet.values`).
 
     **Raises:** `InputError` for `horizon_months` outside [1, 600].
     """
@@ -96,6 +98,7 @@ class ALMProblem(eqx.Module):
     config: ALMConfig
     horizon_months: int = eqx.field(static=True)
     liabilities: LiabilitySchedule | None = eqx.field(static=True, default=None)
+    external_scenarios: bool = eqx.field(static=True, default=False)
 
     @property
     def schedule(self) -> LiabilitySchedule:
@@ -127,6 +130,42 @@ def initial_funding_ratio(problem: ALMProblem, factors: dict) -> float:
                                             indexed_share(problem.config, problem.scene))
 
 
+def next_market(state: MarketState, shock, factors: dict, market: Market, credit: bool) -> MarketState:
+    """The generated market a month after `state`, from the month's correlated `shock` (paths,
+    drivers): key rates, inflation and (with `credit`) the spread revert to their initial values
+    (`factors`) as Vasicek processes; the price index accrues the month's inflation."""
+    n_rate = len(RATE_DRIVERS)
+    rate_shocks = shock[:, :n_rate] @ jnp.asarray(market.loadings()).T
+    key_rates0 = jnp.asarray(factors["key_rates"])
+    key_rates = state.key_rates + (
+        market.rate_mean_reversion * (key_rates0 - state.key_rates) * MONTH
+        + factors["rate_vols"] * np.sqrt(MONTH) * rate_shocks)
+    inflation = state.inflation + (
+        market.inflation_mean_reversion * (jnp.asarray(factors["inflation"]) - state.inflation) * MONTH
+        + factors["inflation_vol"] * np.sqrt(MONTH) * shock[:, -2])
+    spread = state.spread
+    if credit:
+        spread = spread + (market.spread_mean_reversion * (jnp.asarray(factors["spread"]) - spread) * MONTH
+                           + factors["spread_vol"] * np.sqrt(MONTH) * shock[:, -1])
+    return MarketState(key_rates, inflation, state.cpi * jnp.exp(state.inflation * MONTH), spread)
+
+
+def scenario_state(values, origin, factors: dict, credit: bool, years, n_tenors: int) -> MarketState:
+    """The market of a given scenario at `years` [years] after the start: `values` and
+    `origin`, the scenario's variables then and at the start, shape (paths, n_tenors +
+    n_equities + 3) (`_scenario_file.variable_names`). Shifted by the factors: key rates,
+    inflation and (with `credit`) the spread by the factor's difference to the scenario's start,
+    the price index by exp(inflation shift x years). Equity levels scale an index's whole path,
+    so they leave its returns alone."""
+    k = n_tenors
+    rates, cpi, inflation, spread = values[:, :k], values[:, -3], values[:, -2], values[:, -1]
+    inflation_shift = jnp.asarray(factors["inflation"]) - origin[:, -2]
+    spread0 = jnp.asarray(factors["spread"])
+    return MarketState(rates + (jnp.asarray(factors["key_rates"]) - origin[:, :k]), inflation + inflation_shift,
+                       cpi / origin[:, -3] * jnp.exp(inflation_shift * years),
+                       spread + (spread0 - origin[:, -1]) if credit else jnp.broadcast_to(spread0, spread.shape))
+
+
 class Outcome(NamedTuple):
     """Per-path results, each shape (paths,): `funding_ratio` at the horizon; `surplus`, the
     discounted terminal surplus per unit of initial liability; `shortfall_penalty`; and the
@@ -153,7 +192,8 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
     **Arguments:**
     - `factors`: every factor group (see `_factors.GROUPS`), as arrays.
     - `shocks`: correlated standard normals, shape (months >= horizon, paths, n_drivers), from
-      `correlated_shocks`.
+      `correlated_shocks`; with `problem.external_scenarios`, a scenario set's values instead,
+      shape (months + 1 >= horizon + 1, paths, n_tenors + n_equities + 3), month 0 the start.
     - `smooth_constraints`: True for the smooth surrogates (training, sensitivities), False for
       the exact |.| and max(., 0) (reporting).
     """
@@ -165,8 +205,8 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
     turnover_sharpness = config.turnover_sharpness if smooth_constraints else None
     floor_sharpness = config.floor_sharpness if smooth_constraints else None
     tenors = jnp.asarray(market.tenors)
-    loadings = jnp.asarray(market.loadings())
-    n_rate, n_equity = loadings.shape[1], market.n_equities
+    n_rate, n_equity, n_rate_keys = len(RATE_DRIVERS), market.n_equities, market.n_tenors
+    origin = shocks[0] if problem.external_scenarios else None
     schedule = problem.schedule
     profile = key_rate_profile(factors["liability_cash_flows"], market, horizon, schedule)
     benefits = schedule.monthly(factors["liability_cash_flows"])
@@ -203,21 +243,15 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
         if scene.has("funding_floor"):
             shortfall = smooth.penalty_below(funding_ratio, config.funding_floor, floor_sharpness)
             penalty = penalty + config.floor_penalty * MONTH * shortfall
-        rate_shocks = shock[:, :n_rate] @ loadings.T
-        key_rates = state.key_rates + (
-            market.rate_mean_reversion * (key_rates0 - state.key_rates) * MONTH
-            + factors["rate_vols"] * np.sqrt(MONTH) * rate_shocks)
-        inflation = state.inflation + (
-            market.inflation_mean_reversion * (inflation0 - state.inflation) * MONTH
-            + factors["inflation_vol"] * np.sqrt(MONTH) * shock[:, -2])
-        spread = state.spread
-        if credit:
-            spread = spread + (market.spread_mean_reversion * (spread0 - spread) * MONTH
-                               + factors["spread_vol"] * np.sqrt(MONTH) * shock[:, -1])
-        after = MarketState(key_rates, inflation, state.cpi * jnp.exp(state.inflation * MONTH),
-                            spread)
-        returns = gross_returns(state, after, shock[:, n_rate:n_rate + n_equity],
-                                factors["equity_vols"], market, credit=credit)
+        if problem.external_scenarios:
+            now, later = shock
+            after = scenario_state(later, origin, factors, credit, (month + 1) * MONTH, n_rate_keys)
+            index_ratio = later[:, n_rate_keys:-3] / now[:, n_rate_keys:-3]
+            returns = scenario_returns(state, after, index_ratio, market, credit=credit)
+        else:
+            after = next_market(state, shock, factors, market, credit)
+            returns = gross_returns(state, after, shock[:, n_rate:n_rate + n_equity],
+                                    factors["equity_vols"], market, credit=credit)
         grown = weights * returns
         growth = jnp.sum(grown, axis=1)
         benefit = benefits[month]
@@ -232,7 +266,8 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
     carry0 = _Carry(start, assets0 * ones, jnp.broadcast_to(held0 / assets0, (n_paths, 6)),
                     jnp.zeros(n_paths), jnp.zeros(n_paths))
     months = jnp.arange(horizon)
-    final, _ = jax.lax.scan(jax.checkpoint(step), carry0, (months, shocks[:horizon]))
+    steps = (shocks[:horizon], shocks[1:horizon + 1]) if problem.external_scenarios else shocks[:horizon]
+    final, _ = jax.lax.scan(jax.checkpoint(step), carry0, (months, steps))
     liability_end = liabilities(horizon, final.market)
     surplus = (final.assets - liability_end) * jnp.exp(-final.log_bank) / liability0
     gamma = config.risk_aversion

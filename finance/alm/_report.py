@@ -5,6 +5,8 @@ inflation, to the equity indices and to the credit spread, each from one reverse
 a basis point (rates) or a 1% move (equity levels). This module computes the JSON's data; the
 content is in `_report_content`; the core writes the files."""
 
+import pathlib
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -79,16 +81,17 @@ def ladder(objective: dict, funding_ratio: dict, names: dict, reported) -> dict:
 def build_alm_report(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int | None = None,
                      train_steps: int = 300, train_paths: int = 256, bump: bool = True, seed: int = 0,
                      progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None,
-                     fund=None) -> dict:
+                     fund=None, scenario_set=None) -> dict:
     """Every number of the ALM report, as the JSON document's data (see docs/alm.md), for the
-    built-in fund or `fund` (`load_fund`); `mesh`: the devices the paths split over."""
+    built-in fund or `fund` (`load_fund`), on generated paths or its `scenario_set`
+    (`load_scenarios`); `mesh`: the devices the paths split over."""
     import time
 
     start = time.perf_counter()
     result = run_alm(n_risk_factors, n_paths=n_paths, horizon_months=horizon_months, train_steps=train_steps, bump=bump,
                      train_paths=train_paths, seed=seed, progress=progress, checkpoint_path=checkpoint_path,
-                     resume=resume, mesh=mesh, fund=fund)
-    study = study_for(n_risk_factors, fund, horizon_months)
+                     resume=resume, mesh=mesh, fund=fund, scenario_set=scenario_set)
+    study = study_for(n_risk_factors, fund, horizon_months, scenario_set)
     timing, (ratio, gradient) = snapo_ode.time_function(
         _mean_funding_ratio_and_gradient, study.problem, result.policy, study.reported, study.fixed, result.shocks,
         mesh_of(result.shocks), repeats=3)
@@ -127,11 +130,13 @@ def alm_report(data: dict, provenance: dict) -> Report:
                           for group, names in data["factor_groups"].items() for name in names]})
 
 
-def report_provenance(n_risk_factors: int, settings: dict, command=None, fund=None) -> dict:
+def report_provenance(n_risk_factors: int, settings: dict, command=None, fund=None, scenario_file=None) -> dict:
     """The report's provenance: its settings, N and, for a `fund` (`load_fund`), the SHA-256 of
-    its fund and liability files."""
+    its fund and liability files, and of the `scenario_file` it ran on."""
     inputs = {"settings": settings, "risk_factors": n_risk_factors}
     if fund is not None:
         inputs.update(fund_file=fund.files[0], liability_file=fund.files[1])
+    if scenario_file is not None:
+        inputs["scenario_file"] = pathlib.Path(scenario_file)
     return snapo_ode.provenance(inputs, command=command)
 

@@ -5,8 +5,9 @@ beside it), and the `ALMStudy` of `snapo alm`, whose JSON keys are documented in
 import dataclasses
 
 import jax
+import numpy as np
 
-from snapo_ode import BumpComparison, Result, field
+from snapo_ode import BumpComparison, Result, field, to_host
 
 from ._policy import AbstractRebalancing
 
@@ -68,7 +69,8 @@ class ALMStudy(Result):
     paths against the fixed-mix `baselines`, and its sensitivities (`measurement`, whose fields
     sit at the top level of the JSON). Carries the `policy` and the evaluation `shocks`. `fund`:
     the fund file's name (null: the built-in fund built for N); `initial_funding_ratio`: assets
-    over liabilities at the start, valued as the simulation values them."""
+    over liabilities at the start, valued as the simulation values them; `scenarios`: "generated"
+    or the scenario file the study ran on."""
 
     n_risk_factors: int
     layout: dict
@@ -85,6 +87,7 @@ class ALMStudy(Result):
     shocks: jax.Array = field(json=False)
     fund: str | None = None
     initial_funding_ratio: float | None = None
+    scenarios: str = "generated"
 
     def to_json(self) -> dict:
         payload = {**super().to_json(), **self.evaluation.to_json(), **self.measurement.to_json()}
@@ -98,3 +101,11 @@ class ALMStudy(Result):
         lines += [f"  {name}: objective {baseline['objective']:.6f}" for name, baseline in self.baselines.items()]
         lines.append(self.measurement.summary())
         return "\n".join(lines)
+
+
+def funding_ratio_statistics(funding_ratio) -> dict[str, float]:
+    """Mean, 5/50/95% quantiles and the probability of underfunding (< 1) at the horizon."""
+    values = to_host(funding_ratio)
+    p05, p50, p95 = np.quantile(values, [0.05, 0.5, 0.95])
+    return dict(mean=float(values.mean()), p05=float(p05), p50=float(p50), p95=float(p95),
+                probability_below_1=float(np.mean(values < 1.0)))

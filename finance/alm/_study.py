@@ -14,14 +14,15 @@ import numpy as np
 
 import snapo_ode
 from snapo_ode import (
-    TrainResult, check_count, check_divisible, check_memory, compare_with_bumps, generate_sharded, mesh_of,
-    per_sample, require_float64, time_function, to_host, value_and_sensitivities)
+    InputError, TrainResult, check_count, check_divisible, check_memory, compare_with_bumps, generate_sharded, mesh_of,
+    per_sample, require_float64, time_function, value_and_sensitivities)
 
-from ._results import ALMStudy, Evaluation, SensitivityMeasurement
+from ._results import ALMStudy, Evaluation, SensitivityMeasurement, funding_ratio_statistics
 from ._sensitivities import (
     BUMP_RELATIVE_STEP, BUMP_ROWS_PER_CHUNK, FORWARD_ROWS_PER_CHUNK, PATH_SPECS, chunk_size, objective_of_reported)
 from ._factors import (
     GROUPS,
+    SCENARIO_GROUPS,
     FactorLayout,
     check_factors,
     default_factors,
@@ -31,7 +32,9 @@ from ._factors import (
 )
 from ._liabilities import MINIMUM_RUN_OFF_MONTHS, key_rate_profile
 from ._market import Market, correlated_shocks, key_tenors
-from ._fund_file import Fund
+from ._fund_file import Fund, fund_holdings
+from ._scenario_file import ScenarioSet
+from ._scenarios import batch_drawer, on_devices, scenario_start, split_for_training
 from ._model import EFFECTS, ALMConfig, ALMProblem, indexed_share, initial_funding_ratio, simulate
 from ._policy import AbstractRebalancing, NeuralRebalancing, liability_matching, sixty_forty
 
@@ -98,18 +101,33 @@ def build_study(n_risk_factors: int, *, horizon_months: int = 120, effects=None,
     return _assembled(problem, factors)
 
 
-def build_fund_study(fund: Fund, *, horizon_months: int | None = None, effects=None, without=()) -> Study:
-    """The study of a fund read from its files (`load_fund`): every factor group reported (N =
-    key tenors x 2 + indices x 3 + 4 + 5 + liability rows), over its horizon (or
-    `horizon_months`), with its effects (or `effects`, less `without`).
+def build_fund_study(fund: Fund, *, horizon_months: int | None = None, effects=None, without=(),
+                     scenario_set: ScenarioSet | None = None) -> Study:
+    """The study of a fund read from its files (`load_fund`), over its horizon (or
+    `horizon_months`), with its effects (or `effects`, less `without`): on the built-in
+    generator, every factor group reported (N = key tenors x 2 + indices x 3 + 4 + 5 + liability
+    rows); on a given `scenario_set` (`load_scenarios`), from the set's starting market, with
+    the key rates, inflation and spread reported as shifts of every scenario, the equity levels,
+    liability rows and holdings (N = key tenors + indices x 2 + 7 + liability rows). The holdings
+    follow from the fund's assets on that initial market (`fund_holdings`).
 
-    **Raises:** `InputError` as `build_study`."""
+    **Raises:** `InputError` as `build_study`, and for a set shorter than the horizon."""
     require_float64("ALM studies")
-    layout = FactorLayout(fund.market.n_tenors, fund.market.n_equities, fund.schedule.n_rows, GROUPS)
+    market = fund.market
+    layout = FactorLayout(market.n_tenors, market.n_equities, fund.schedule.n_rows,
+                          GROUPS if scenario_set is None else SCENARIO_GROUPS)
     horizon = fund.horizon_months if horizon_months is None else horizon_months
     check_size(layout, horizon)
     scene = EFFECTS.scene(fund.effects if effects is None else effects, without=without)
-    return _assembled(ALMProblem(fund.market, layout, scene, fund.config, horizon, fund.schedule), fund.factors)
+    factors = dict(fund.factors)
+    if scenario_set is not None:
+        if scenario_set.months < horizon:
+            raise InputError(f"scenario file {scenario_set.source}: {scenario_set.months} months; the horizon is "
+                             f"{horizon}.")
+        factors.update(scenario_start(scenario_set, market))
+    factors["holdings"] = fund_holdings(fund, factors, scene)
+    return _assembled(ALMProblem(market, layout, scene, fund.config, horizon, fund.schedule, scenario_set is not None),
+                      factors)
 
 
 def _assembled(problem: ALMProblem, factors: dict) -> Study:
@@ -149,9 +167,10 @@ def baselines(study: Study) -> dict[str, AbstractRebalancing]:
 
 def train_policy(study: Study, *, steps: int, n_paths: int = 256, key=None,
                  learning_rate: float = 3e-3, progress: bool = True,
-                 checkpoint_path=None, resume: bool = False, mesh=None) -> tuple[NeuralRebalancing, TrainResult]:
+                 checkpoint_path=None, resume: bool = False, mesh=None, draw=None) -> tuple[NeuralRebalancing, TrainResult]:
     """Train a `NeuralRebalancing` policy on the smooth objective, fresh paths every step (split
-    over the devices of `mesh`, when given).
+    over the devices of `mesh`, when given): generated, or `draw(key)`'s (a given set's
+    training scenarios, `_scenarios.batch_drawer`).
 
     Returns the best policy and the `TrainResult` (its history has the loss, -J, per step).
     """
@@ -165,22 +184,16 @@ def train_policy(study: Study, *, steps: int, n_paths: int = 256, key=None,
     reported = study.reported
 
     def loss(policy, step_key):
-        value = objective_fn(reported, policy, scenarios(study, n_paths, step_key))
+        paths = scenarios(study, n_paths, step_key) if draw is None else draw(step_key)
+        value = objective_fn(reported, policy, paths)
         return -value, {"value": value}
 
     result = snapo_ode.train(loss, initial, steps=steps, key=jax.random.fold_in(key, 1),
                              learning_rate=learning_rate, progress=progress,
                              checkpoint_path=checkpoint_path, checkpoint_every=50, resume=resume,
-                             description="alm policy", fingerprint={"fund": study, "train_paths": n_paths})
+                             description="alm policy", fingerprint={"fund": study, "train_paths": n_paths,
+                                                                    "given_scenarios": draw is not None})
     return result.params, result
-
-
-def funding_ratio_statistics(funding_ratio) -> dict[str, float]:
-    """Mean, 5/50/95% quantiles and the probability of underfunding (< 1) at the horizon."""
-    values = to_host(funding_ratio)
-    p05, p50, p95 = np.quantile(values, [0.05, 0.5, 0.95])
-    return dict(mean=float(values.mean()), p05=float(p05), p50=float(p50), p95=float(p95),
-                probability_below_1=float(np.mean(values < 1.0)))
 
 
 @eqx.filter_jit
@@ -251,22 +264,29 @@ def measure_sensitivities(study: Study, policy: AbstractRebalancing, shocks, *, 
         gradient=gradient, comparison=comparison)
 
 
-def study_for(n_risk_factors: int = 100, fund: Fund | None = None, horizon_months: int | None = None) -> Study:
+def study_for(n_risk_factors: int = 100, fund: Fund | None = None, horizon_months: int | None = None,
+              scenario_set: ScenarioSet | None = None) -> Study:
     """The built-in fund with `n_risk_factors` factors (`build_study`, 120 months unless
-    `horizon_months`), or `fund` (`build_fund_study`, over its own horizon unless `horizon_months`)."""
+    `horizon_months`), or `fund` (`build_fund_study`, over its own horizon unless
+    `horizon_months`, on the given `scenario_set` where there is one)."""
     if fund is None:
         return build_study(n_risk_factors, horizon_months=120 if horizon_months is None else horizon_months)
-    return build_fund_study(fund, horizon_months=horizon_months)
+    return build_fund_study(fund, horizon_months=horizon_months, scenario_set=scenario_set)
 
 
 def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int | None = None,
             bump: bool = False, train_steps: int = 0, train_paths: int = 256, seed: int = 0,
             progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None,
-            fund: Fund | None = None) -> ALMStudy:
+            fund: Fund | None = None, scenario_set: ScenarioSet | None = None) -> ALMStudy:
     """The `snapo alm` study of the built-in fund with `n_risk_factors` factors, or of `fund`
-    (`load_fund`; its N follows from its files); `horizon_months` (default: 120, or the fund's);
-    `checkpoint_path`, `resume`: of the training, see `snapo_ode.train`; `mesh`: the devices the
-    paths are split over, see `snapo_ode.sample_mesh`."""
+    (`load_fund`; its N follows from its files), on `n_paths` generated paths or on the given
+    `scenario_set` of the fund (`load_scenarios`; then every scenario evaluates, or with training
+    the second half, the first half training: `_scenarios.split_for_training`);
+    `horizon_months` (default: 120, or the fund's); `checkpoint_path`, `resume`: of the training,
+    see `snapo_ode.train`; `mesh`: the devices the paths are split over, see
+    `snapo_ode.sample_mesh`."""
+    if scenario_set is not None and fund is None:
+        raise InputError("given scenarios need the fund they were written for (fund=load_fund(...)).")
     check_count("paths", n_paths)
     check_count("train_steps", train_steps, low=0)
     check_count("train_paths", train_paths)
@@ -274,15 +294,21 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
         check_divisible("paths", n_paths, mesh)
         if train_steps:
             check_divisible("train_paths", train_paths, mesh)
-    study = study_for(n_risk_factors, fund, horizon_months)
+    study = study_for(n_risk_factors, fund, horizon_months, scenario_set)
     horizon_months = study.problem.horizon_months
-    check_size(study.layout, horizon_months, max(n_paths, train_paths))
     key = jax.random.key(seed)
-    shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh)
+    draw = None
+    if scenario_set is None:
+        check_size(study.layout, horizon_months, max(n_paths, train_paths))
+        shocks = scenarios(study, n_paths, jax.random.fold_in(key, 2), mesh)
+    else:
+        evaluation, training = split_for_training(scenario_set, train_steps)
+        shocks, n_paths = on_devices(evaluation, mesh), evaluation.shape[1]
+        draw = None if training is None else batch_drawer(training, train_paths)
     if train_steps:
         policy, result = train_policy(study, steps=train_steps, n_paths=train_paths,
                                       key=jax.random.fold_in(key, 1), progress=progress,
-                                      checkpoint_path=checkpoint_path, resume=resume, mesh=mesh)
+                                      checkpoint_path=checkpoint_path, resume=resume, mesh=mesh, draw=draw)
         train_seconds, train_compile = result.seconds, result.compile_seconds
     else:
         policy = NeuralRebalancing(study.market, key=jax.random.fold_in(jax.random.fold_in(key, 1), 0))
@@ -294,5 +320,5 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
         baselines={name: evaluate(study, mix, shocks).to_json() for name, mix in baselines(study).items()},
         train_seconds=train_seconds, train_compile_seconds=train_compile,
         measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks,
-        fund=None if fund is None else fund.name,
+        fund=None if fund is None else fund.name, scenarios="generated" if scenario_set is None else scenario_set.source,
         initial_funding_ratio=initial_funding_ratio(study.problem, {**study.fixed, **study.reported}))

@@ -1,0 +1,229 @@
+"""Scenario sets from outside (an economic scenario generator's output) and the built-in
+generator's scenarios written in the same format.
+
+A file holds, per scenario and time, these variables (names case-sensitive):
+- `zero_rate_<tenor>`: the zero rate [1/year, continuously compounded] at `<tenor>` years (any
+  tenors, at least one; interpolated linearly onto the fund's key tenors, flat beyond the ends);
+- `equity_<name>`: the total-return index of the fund's equity index `<name>` (any level);
+- `cpi`: the price index (any level);
+- `inflation` (optional): the expected inflation rate [1/year] that indexed benefits grow at;
+  without it, the price index's annualised growth over each step (the first step's at time 0);
+- `spread` (optional): the credit spread [1/year]; without it, the fund's own, constant.
+Times are in years from the valuation date, from 0, at monthly (1/12) or annual (1) steps,
+reaching the study's horizon; annual steps are filled in monthly, linearly for rates and
+log-linearly for the indices.
+
+Formats (by the file's extension): `.csv` and `.parquet`, long tables with the columns
+`scenario, time, variable, value` (every scenario, time and variable exactly once, in any
+order); `.npz`, the arrays `values` (scenarios x times x variables), `times` (years) and
+`variables` (names).
+"""
+
+import os
+import pathlib
+import re
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from snapo_ode import InputError, read_text
+
+from ._market import MONTH, Market, interpolation_weights
+
+LONG_COLUMNS = ["scenario", "time", "variable", "value"]
+MAX_SCENARIO_BYTES = 2 * 2**30
+_TENOR = re.compile(r"zero_rate_(\d+(\.\d*)?|\.\d+)$")
+
+
+class ScenarioSet(NamedTuple):
+    """A scenario set in the model's layout: `values`, shape (months + 1, scenarios, n_tenors +
+    n_equities + 3) (`variable_names`), month 0 the start, monthly to the horizon; and the file
+    it came from."""
+
+    values: np.ndarray
+    source: str
+
+    @property
+    def n_scenarios(self) -> int:
+        return self.values.shape[1]
+
+    @property
+    def months(self) -> int:
+        return self.values.shape[0] - 1
+
+
+def variable_names(market: Market) -> list[str]:
+    """The variables of the model's layout, in order: the fund's key tenors, its equity indices,
+    then `cpi`, `inflation`, `spread`."""
+    return ([f"zero_rate_{float(t)!r}" for t in market.tenors] + [f"equity_{name}" for name in market.equity_names]
+            + ["cpi", "inflation", "spread"])
+
+
+def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(values (scenarios, times, variables), times, variable names) from any of the formats."""
+    where = f"scenario file {path}"
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                missing = [name for name in ("values", "times", "variables") if name not in data]
+                if missing:
+                    raise InputError(f"{where}: no array {missing[0]!r}; an NPZ scenario file holds 'values' "
+                                     "(scenarios x times x variables), 'times' and 'variables'.")
+                values, times, names = data["values"], data["times"], [str(v) for v in data["variables"]]
+        except (OSError, ValueError) as error:
+            raise InputError(f"{where}: not a readable NPZ file ({error}).") from None
+        if values.ndim != 3 or values.shape[1:] != (times.size, len(names)):
+            raise InputError(f"{where}: values has shape {values.shape}; expected (scenarios, {times.size} times, "
+                             f"{len(names)} variables).")
+        return np.asarray(values, float), np.asarray(times, float), names
+    if suffix not in (".csv", ".parquet"):
+        raise InputError(f"{where}: unknown format {suffix!r}; allowed: .csv, .parquet (long tables) or .npz.")
+    try:
+        if suffix == ".csv":
+            import io
+
+            table = pd.read_csv(io.StringIO(read_text(path, "scenario", MAX_SCENARIO_BYTES)),
+                                skipinitialspace=True, dtype={"variable": str})
+        else:
+            table = pd.read_parquet(path)
+    except InputError:
+        raise
+    except Exception as error:  # pandas and pyarrow raise many types for a malformed file
+        raise InputError(f"{where}: not a readable table ({' '.join(str(error).split())[:200]}).") from None
+    if list(table.columns) != LONG_COLUMNS:
+        raise InputError(f"{where}, line 1: columns {list(table.columns)}; expected {', '.join(LONG_COLUMNS)}.")
+    return _pivoted(table, where, line_offset=2 if suffix == ".csv" else None)
+
+
+def _row(where, index, line_offset) -> str:
+    return f"{where}, line {index + line_offset}" if line_offset is not None else f"{where}, row {index + 1}"
+
+
+def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    for column in ("time", "value"):
+        numbers = pd.to_numeric(table[column], errors="coerce")
+        bad = np.flatnonzero(~np.isfinite(numbers.to_numpy(float)))
+        if bad.size:
+            raise InputError(f"{_row(where, bad[0], line_offset)}: {column} = {table[column].iloc[bad[0]]!r}; "
+                             "allowed: a finite number.")
+        table[column] = numbers
+    scenario_index, scenarios = pd.factorize(table["scenario"].astype(str))  # in the file's order
+    times, time_index = np.unique(table["time"].to_numpy(float), return_inverse=True)
+    names, name_index = np.unique(table["variable"].astype(str), return_inverse=True)
+    cells = (scenario_index * times.size + time_index) * names.size + name_index
+    counts = np.bincount(cells, minlength=scenarios.size * times.size * names.size)
+    if np.any(counts > 1):
+        first = int(np.flatnonzero(counts[cells] > 1)[1])
+        raise InputError(f"{_row(where, first, line_offset)}: scenario {table['scenario'].iloc[first]!r}, time "
+                         f"{table['time'].iloc[first]:g}, {table['variable'].iloc[first]} is given twice.")
+    if np.any(counts == 0):
+        cell = int(np.flatnonzero(counts == 0)[0])
+        s, rest = divmod(cell, times.size * names.size)
+        t, v = divmod(rest, names.size)
+        raise InputError(f"{where}: scenario {scenarios[s]!r} has no {names[v]} at time {times[t]:g}; every "
+                         "scenario needs every variable at every time.")
+    values = np.empty(scenarios.size * times.size * names.size)
+    values[cells] = table["value"].to_numpy(float)
+    return values.reshape(scenarios.size, times.size, names.size), times, [str(n) for n in names]
+
+
+def _monthly(values: np.ndarray, times: np.ndarray, horizon: int, where: str, logarithmic: np.ndarray) -> np.ndarray:
+    """Values at months 0..horizon, shape (horizon + 1, scenarios, variables), from `times`
+    [years] at monthly or annual steps; `logarithmic` marks variables interpolated in log."""
+    steps = np.diff(times)
+    step = steps[0] if steps.size else 0.0
+    if times[0] != 0.0 or steps.size == 0 or not (np.allclose(steps, MONTH, atol=1e-9) or np.allclose(steps, 1.0, atol=1e-9)):
+        raise InputError(f"{where}: times {times[:4].tolist()}...; allowed: from 0 in steps of one month (1/12) or "
+                         "one year, the same throughout.")
+    if times[-1] < horizon * MONTH - 1e-9:
+        raise InputError(f"{where}: the scenarios end at {times[-1]:g} years; the study's horizon is {horizon} months "
+                         f"({horizon * MONTH:g} years).")
+    months = np.arange(horizon + 1) * MONTH
+    if abs(step - MONTH) < 1e-9:
+        return np.transpose(values[:, :horizon + 1], (1, 0, 2))
+    data = np.where(logarithmic, np.log(np.where(logarithmic, values, 1.0)), values)
+    right = np.clip(np.searchsorted(times, months, side="right"), 1, times.size - 1)
+    share = ((months - times[right - 1]) / (times[right] - times[right - 1]))[None, :, None]
+    filled = data[:, right - 1] * (1 - share) + data[:, right] * share
+    return np.transpose(np.where(logarithmic, np.exp(filled), filled), (1, 0, 2))
+
+
+def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int, *, spread: float) -> ScenarioSet:
+    """Read a scenario file (see the module docstring) for a fund with `market`'s key tenors and
+    equity indices, over `horizon_months`; `spread`: the fund's own, where the file has none.
+
+    **Raises:** `InputError` naming the file (the line, for a CSV) and the variable, value or
+    time for a missing or unknown variable, a non-finite or out-of-range value, times that are
+    not monthly or annual from 0, or scenarios shorter than the horizon."""
+    path = pathlib.Path(path)
+    where = f"scenario file {path}"
+    if not path.is_file():
+        raise InputError(f"scenario file {str(path)!r} does not exist.")
+    values, times, names = _table(path)
+    tenors = {name: float(_TENOR.match(name).group(1)) for name in names if _TENOR.match(name)}
+    equities = [f"equity_{name}" for name in market.equity_names]
+    allowed = {*tenors, *equities, "cpi", "inflation", "spread"}
+    unknown = [name for name in names if name not in allowed]
+    missing = [name for name in [*equities, "cpi"] if name not in names] + ([] if tenors else ["zero_rate_<tenor>"])
+    if unknown or missing:
+        raise InputError(f"{where}: {'unknown variable ' + repr(unknown[0]) if unknown else 'no ' + repr(missing[0])}; "
+                         f"the variables are zero_rate_<tenor in years> (one or more), "
+                         f"{', '.join(equities)} (the fund's equity indices), cpi, and optionally inflation and spread.")
+    if not np.all(np.isfinite(values)):
+        raise InputError(f"{where}: a value is not finite (NaN or infinite).")
+    column = {name: i for i, name in enumerate(names)}
+    for name in [*equities, "cpi"]:
+        if np.any(values[..., column[name]] <= 0):
+            raise InputError(f"{where}: {name} = {values[..., column[name]].min():g}; allowed: an index > 0.")
+    order = sorted(tenors, key=tenors.get)
+    rates = values[..., [column[name] for name in order]]
+    if np.any(np.abs(rates) >= 0.5):
+        raise InputError(f"{where}: a zero rate of {rates.flat[np.argmax(np.abs(rates))]:g}; allowed: (-0.5, 0.5).")
+    keyed = rates @ interpolation_weights(market.tenors, np.array([tenors[n] for n in order])).T
+    cpi = values[..., column["cpi"]]
+    if "inflation" in column:
+        inflation = values[..., column["inflation"]]
+    else:
+        growth = np.diff(np.log(cpi), axis=1) / np.diff(times)
+        inflation = np.concatenate([growth[:, :1], growth], axis=1)
+    credit = values[..., column["spread"]] if "spread" in column else np.full(cpi.shape, spread)
+    stacked = np.concatenate([keyed, values[..., [column[name] for name in equities]],
+                              np.stack([cpi, inflation, credit], axis=-1)], axis=-1)
+    logarithmic = np.zeros(stacked.shape[-1], bool)
+    logarithmic[market.n_tenors:market.n_tenors + market.n_equities + 1] = True
+    return ScenarioSet(_monthly(stacked, times, horizon_months, where, logarithmic), str(path))
+
+
+def write_scenarios(path: str | os.PathLike, scenarios: ScenarioSet, market: Market) -> pathlib.Path:
+    """Write `scenarios` in the format of `path`'s extension (.csv, .parquet or .npz), monthly,
+    with the variables `variable_names(market)`; atomically."""
+    from snapo_ode import atomic_write_bytes
+
+    path = pathlib.Path(path)
+    names = variable_names(market)
+    months, count, _ = scenarios.values.shape
+    times = np.arange(months) * MONTH
+    by_scenario = np.transpose(scenarios.values, (1, 0, 2))
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        import io
+
+        buffer = io.BytesIO()
+        np.savez(buffer, values=by_scenario, times=times, variables=np.array(names))
+        return atomic_write_bytes(path, buffer.getvalue())
+    if suffix not in (".csv", ".parquet"):
+        raise InputError(f"--write-scenarios {path}: unknown format {suffix!r}; allowed: .csv, .parquet or .npz.")
+    table = pd.DataFrame({
+        "scenario": np.repeat(np.arange(count), months * len(names)),
+        "time": np.tile(np.repeat(times, len(names)), count),
+        "variable": np.tile(np.array(names), count * months),
+        "value": by_scenario.reshape(-1)})
+    if suffix == ".csv":
+        return atomic_write_bytes(path, table.to_csv(index=False, float_format="%.17g").encode())
+    import io
+
+    buffer = io.BytesIO()
+    table.to_parquet(buffer, index=False)
+    return atomic_write_bytes(path, buffer.getvalue())
