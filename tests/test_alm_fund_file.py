@@ -13,6 +13,7 @@ from finance import alm
 from finance.alm._cli import register_alm
 from snapo_ode import InputError, bump_and_revalue, max_relative_difference, value_and_sensitivities
 from snapo_ode.cli import main
+from references import alm_funding_ratio
 
 SAMPLE = alm.sample_fund_path()
 
@@ -127,12 +128,15 @@ def test_bad_files_name_the_file_line_field_and_value(tmp_path, liabilities, cha
 
 def test_snapo_alm_runs_a_fund_file_and_refuses_a_count_beside_it(tmp_path, capsys):
     out = tmp_path / "fund.json"
-    path = _fund(tmp_path, "cohort,year,cash_flow\na,1,24\nb,2,30\n", cash_flow_unit="  cash_flow_unit: million / year")
+    path = _fund(tmp_path, "cohort,year,cash_flow\na,1,24\nb,2,30\n", cash_flow_unit="  cash_flow_unit: million / year",
+                 floor_sharpness="  floor_sharpness: 50.0\nboard: {required_funding_ratio: 1.3, months: [2, 3]}")
     argv = ["alm", "--fund", str(path), "--paths", "8", "--horizon-months", "3", "--no-progress"]
     assert main([*argv, "--json", str(out)], plugins=[register_alm]) == 0
     payload = json.loads(out.read_text())
     assert payload["fund"] == "built-in example fund" and payload["n_risk_factors"] == 10 * 2 + 3 + 4 + 5 + 2
     assert "liability_cash_flow_month_13_cohort_b" in payload["sensitivities"]
+    assert payload["p_underfunded"]["months"] == [2, 3] and payload["p_underfunded"]["required_funding_ratio"] == 1.3
+    assert {"funding_ratio_percentiles", "surplus_at_risk", "hedge_ratio", "key_rate_durations"} <= set(payload)
     assert main([*argv, "--risk-factors", "40"], plugins=[register_alm]) == 2
     assert "give one of the two" in capsys.readouterr().err
 
@@ -146,34 +150,6 @@ def test_a_ragged_row_and_blank_lines_keep_their_line_numbers(tmp_path):
         alm.load_fund(_fund(tmp_path, "month,cash_flow\n1,2\n7\n"))
 
 
-def _numpy_funding_ratio(study) -> float:
-    """Assets over liabilities at the start, written from docs/alm.md in NumPy: each monthly benefit
-    mapped linearly onto its two key tenors, discounted at the key rates, the indexed share grown at
-    the initial inflation; bonds at exp(-y tau) with y interpolated (plus the spread for credit), the
-    inflation-linked bucket at the real yield; equities at their levels."""
-    factors = {k: np.asarray(v, float) for k, v in {**study.fixed, **study.reported}.items()}
-    market, config = study.market, study.problem.config
-    tenors, rates = market.tenors, factors["key_rates"]
-    monthly = np.asarray(study.problem.schedule.monthly(factors["liability_cash_flows"]))
-    maturities = np.arange(1, monthly.size + 1) / 12.0
-    profile = np.zeros(tenors.size)
-    for flow, tau in zip(monthly, np.clip(maturities, tenors[0], tenors[-1])):
-        right = min(max(np.searchsorted(tenors, tau, side="right"), 1), tenors.size - 1)
-        share = (tau - tenors[right - 1]) / (tenors[right] - tenors[right - 1])
-        profile[right - 1] += flow * (1 - share)
-        profile[right] += flow * share
-    f = config.indexation if study.problem.scene.has("inflation_indexation") else 0.0
-    liability = np.sum(profile * np.exp(-rates * tenors) * (1 - f + f * np.exp(factors["inflation"] * tenors)))
-    def y(tau):
-        return np.interp(tau, tenors, rates)
-    short, long = market.bond_maturities
-    spread = factors["spread"] if study.problem.scene.has("credit") else 0.0
-    prices = [1.0, np.exp(-y(short) * short), np.exp(-y(long) * long),
-              np.exp(-(y(market.inflation_linked_maturity) - factors["inflation"]) * market.inflation_linked_maturity),
-              np.exp(-(y(market.credit_maturity) + spread) * market.credit_maturity), *factors["equity_levels"]]
-    return float(np.sum(factors["holdings"] * np.array(prices)) / liability)
-
-
 @pytest.mark.parametrize("without", [(), ("inflation_indexation",), ("credit",)])
 def test_every_fund_starts_at_the_funding_ratio_its_file_states(tmp_path, without):
     effects = [name for name in alm.EFFECTS.effects if name not in without]
@@ -181,7 +157,7 @@ def test_every_fund_starts_at_the_funding_ratio_its_file_states(tmp_path, withou
                  cash_flow_unit="  cash_flow_unit: million / year", initial_funding_ratio="  initial_funding_ratio: 0.93",
                  horizon_months=f"horizon_months: 12\neffects: {effects}")
     study = alm.build_fund_study(alm.load_fund(path))
-    assert _numpy_funding_ratio(study) == pytest.approx(0.93, rel=1e-12)
+    assert alm_funding_ratio(study) == pytest.approx(0.93, rel=1e-12)
     assert alm.initial_funding_ratio(study.problem, {**study.fixed, **study.reported}) == pytest.approx(0.93, rel=1e-12)
     built_in = alm.build_study(40, horizon_months=12, without=without)
-    assert _numpy_funding_ratio(built_in) == pytest.approx(1.1, rel=1e-12)
+    assert alm_funding_ratio(built_in) == pytest.approx(1.1, rel=1e-12)

@@ -32,8 +32,11 @@ def gas_dir(tmp_path_factory):
 
 def test_alm_report(alm_dir):
     doc, page = check_html(alm_dir)
-    assert doc["report"]["sections"] == ["Summary", "Funding ratio and objective", "Sensitivity ladder",
+    assert doc["report"]["sections"] == ["Summary", "Funding ratio and objective", "For the board", "Sensitivity ladder",
                                          "Policy behaviour", "Methods", "Provenance"]
+    assert doc["p_underfunded"]["months"] == [12, 24] and len(doc["funding_ratio_percentiles"]["p50"]) == 25
+    board = list(csv.reader((alm_dir / "board.csv").open()))
+    assert len(board) == 3 and float(board[2][1]) == doc["p_underfunded"]["below_1"][1]
     assert set(doc["ladder"]) == {"key_rates", "inflation", "spread", "equity_levels"}
     for group in doc["ladder"].values():
         assert group["total_objective"] == pytest.approx(sum(r["objective"] for r in group["rows"]))

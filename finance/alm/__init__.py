@@ -14,6 +14,7 @@ from snapo_ode import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._assets": ("MarketState", "gross_returns"),
     "._bench": ("format_table", "scaling_rows", "write_scaling"),
+    "._board": ("BoardSettings", "balance_sheet_figures", "board_figures", "path_figures"),
     "._factors": ("DEFAULT_MIX", "GROUPS", "FactorLayout", "check_factors", "default_factors", "factor_names",
                   "holdings_at_funding_ratio", "layout_for", "named_sensitivities", "split_reported"),
     "._fund_file": ("Fund", "FundFile", "fund_holdings", "load_fund", "sample_fund_path"),
@@ -24,8 +25,8 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._liability_file": ("Liabilities", "load_liabilities"),
     "._market": ("ASSETS", "Market", "check_correlation", "correlated_shocks", "default_correlation", "driver_names",
                  "interpolation_weights", "key_tenors"),
-    "._model": ("EFFECTS", "ALMConfig", "ALMProblem", "Outcome", "indexed_share", "initial_funding_ratio", "objective",
-                "simulate"),
+    "._model": ("EFFECTS", "ALMConfig", "ALMProblem", "Outcome", "Trajectory", "indexed_share", "initial_funding_ratio",
+                "initial_values", "next_market", "objective", "scenario_state", "simulate"),
     "._policy": ("FEATURES", "AbstractRebalancing", "FixedMix", "NeuralRebalancing", "bounded_weights",
                  "liability_matching", "sixty_forty"),
     "._sensitivities": ("BUMP_RELATIVE_STEP", "chunk_size", "objective_of_reported"),

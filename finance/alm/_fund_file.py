@@ -22,6 +22,7 @@ import pydantic
 from snapo_ode import STRICT_SCHEMA, FiniteNumber, InputError, read_text, strict_yaml, validate
 
 from ._assets import initial_prices
+from ._board import BoardSettings
 from ._factors import DEFAULT_MIX, holdings_at_funding_ratio
 from ._liabilities import LiabilitySchedule
 from ._liability_file import load_liabilities
@@ -106,6 +107,15 @@ class ObjectiveSection(_Section):
     floor_sharpness: FiniteNumber | None = None
 
 
+class BoardSection(_Section):
+    """Where the board's figures are taken (`BoardSettings`): `required_funding_ratio`, the
+    `months` of the date figures, the `confidence` of surplus at risk."""
+
+    required_funding_ratio: FiniteNumber = 1.25
+    months: list[pydantic.StrictInt] | None = None
+    confidence: FiniteNumber = 0.95
+
+
 class FundFile(_Section):
     """A fund file (docs/alm.md, "A fund in files")."""
 
@@ -117,15 +127,16 @@ class FundFile(_Section):
     liabilities: LiabilitiesSection
     assets: AssetsSection
     objective: ObjectiveSection = ObjectiveSection()
+    board: BoardSection = BoardSection()
 
 
 class Fund(NamedTuple):
     """A fund ready to study (`build_fund_study`): its `name`, `market`, every factor group but
     the holdings `factors` (float64 arrays), the liability `schedule`, the `config`,
     `horizon_months`, the `effects` it names (None: all), its `assets` section (the holdings
-    follow from it once the study's initial market and effects are known: `fund_holdings`) and
-    the `files` it was read from (the fund file, then the liability file; reports record their
-    SHA-256)."""
+    follow from it once the study's initial market and effects are known: `fund_holdings`), its
+    `board` settings, and the `files` it was read from (the fund file, then the liability file;
+    reports record their SHA-256)."""
 
     name: str
     market: Market
@@ -135,6 +146,7 @@ class Fund(NamedTuple):
     horizon_months: int
     effects: tuple[str, ...] | None
     assets: AssetsSection
+    board: BoardSettings = BoardSettings()
     files: tuple[pathlib.Path, ...] = ()
 
 
@@ -227,11 +239,15 @@ def load_fund(path: str | os.PathLike) -> Fund:
     try:
         config = ALMConfig(**{k: v for k, v in spec.objective.model_dump().items() if v is not None})
         EFFECTS.scene(effects)
+        board = BoardSettings(spec.board.required_funding_ratio,
+                              None if spec.board.months is None else tuple(spec.board.months), spec.board.confidence)
+        if spec.board.months is not None:
+            board.dates(spec.horizon_months)
     except InputError as error:
         raise InputError(f"{where}: {error}") from None
     _check_assets(spec.assets, market, where)
     return Fund(spec.name, market, factors, liabilities.schedule, config, spec.horizon_months, effects, spec.assets,
-                (path, liability_path))
+                board, (path, liability_path))
 
 
 def sample_fund_path() -> pathlib.Path:

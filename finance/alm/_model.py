@@ -27,7 +27,7 @@ from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_range,
 
 from ._assets import MarketState, gross_returns, initial_prices, scenario_returns, zero_rate
 from ._factors import FactorLayout
-from ._liabilities import LiabilitySchedule, bucket_schedule, initial_liability_value, key_rate_profile, liability_value
+from ._liabilities import LiabilitySchedule, bucket_schedule, key_rate_profile, liability_value
 from ._market import MONTH, RATE_DRIVERS, Market
 from ._policy import AbstractRebalancing
 
@@ -120,14 +120,24 @@ def indexed_share(config: ALMConfig, scene: Scene) -> float | None:
     return config.indexation if scene.has("inflation_indexation") else None
 
 
+def initial_values(problem: ALMProblem, factors: dict) -> tuple[jax.Array, jax.Array]:
+    """(assets, liabilities) [million] at the start, valued as `simulate` values them (the
+    credit bucket at its spread when the credit effect is on, the indexed share of the benefits
+    growing at the initial inflation when indexation is); traceable, so their key-rate
+    derivatives are one `jax.jacfwd` away."""
+    market = problem.market
+    assets = jnp.sum(jnp.asarray(factors["holdings"]) * initial_prices(factors, market, credit=problem.scene.has("credit")))
+    profile = key_rate_profile(factors["liability_cash_flows"], market, 0, problem.schedule)[0]
+    share = indexed_share(problem.config, problem.scene)
+    indexation = None if share is None else (share, jnp.ones(1), jnp.reshape(factors["inflation"], (1,)))
+    rates = jnp.asarray(factors["key_rates"])[None, :]
+    return assets, liability_value(profile, rates, jnp.asarray(market.tenors), indexation=indexation)[0]
+
+
 def initial_funding_ratio(problem: ALMProblem, factors: dict) -> float:
-    """The funding ratio at the start, assets over liabilities valued as `simulate` values them
-    (the credit bucket at its spread when the credit effect is on, the indexed share of the
-    benefits when indexation is)."""
-    prices = initial_prices(factors, problem.market, credit=problem.scene.has("credit"))
-    assets = float(jnp.sum(jnp.asarray(factors["holdings"]) * prices))
-    return assets / initial_liability_value(factors, problem.market, problem.schedule,
-                                            indexed_share(problem.config, problem.scene))
+    """The funding ratio at the start, assets over liabilities as `initial_values` values them."""
+    assets, liabilities = initial_values(problem, factors)
+    return float(assets / liabilities)
 
 
 def next_market(state: MarketState, shock, factors: dict, market: Market, credit: bool) -> MarketState:
@@ -166,15 +176,27 @@ def scenario_state(values, origin, factors: dict, credit: bool, years, n_tenors:
                        spread + (spread0 - origin[:, -1]) if credit else jnp.broadcast_to(spread0, spread.shape))
 
 
+class Trajectory(NamedTuple):
+    """The fund at every month-end 0..horizon on every path, each shape (months + 1, paths):
+    `assets` and `liabilities` [million] (the funding ratio is their ratio) and `log_bank`, the
+    log of the bank account (discounting by exp(-log_bank))."""
+
+    assets: jax.Array
+    liabilities: jax.Array
+    log_bank: jax.Array
+
+
 class Outcome(NamedTuple):
     """Per-path results, each shape (paths,): `funding_ratio` at the horizon; `surplus`, the
-    discounted terminal surplus per unit of initial liability; `shortfall_penalty`; and the
-    objective's per-path `utility` (utility of the surplus minus the penalty)."""
+    discounted terminal surplus per unit of initial liability; `shortfall_penalty`; the
+    objective's per-path `utility` (utility of the surplus minus the penalty); and, when asked
+    for (`simulate(..., trajectory=True)`), the month-by-month `trajectory`."""
 
     funding_ratio: jax.Array
     surplus: jax.Array
     shortfall_penalty: jax.Array
     utility: jax.Array
+    trajectory: Trajectory | None = None
 
 
 class _Carry(NamedTuple):
@@ -186,7 +208,7 @@ class _Carry(NamedTuple):
 
 
 def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, shocks,
-             *, smooth_constraints: bool = True) -> Outcome:
+             *, smooth_constraints: bool = True, trajectory: bool = False) -> Outcome:
     """Run the fund over `problem.horizon_months` months on every path.
 
     **Arguments:**
@@ -196,6 +218,8 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
       shape (months + 1 >= horizon + 1, paths, n_tenors + n_equities + 3), month 0 the start.
     - `smooth_constraints`: True for the smooth surrogates (training, sensitivities), False for
       the exact |.| and max(., 0) (reporting).
+    - `trajectory`: also return the fund at every month-end (`Outcome.trajectory`; for the
+      board's figures, not in the objective's program).
     """
     market, scene, config = problem.market, problem.scene, problem.config
     horizon = problem.horizon_months
@@ -230,7 +254,8 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
     def step(carry: _Carry, inputs):
         month, shock = inputs
         state = carry.market
-        funding_ratio = carry.assets / liabilities(month, state)
+        liability_now = liabilities(month, state)
+        funding_ratio = carry.assets / liability_now
         short_rate = zero_rate(state.key_rates, market, MONTH)
         features = jnp.stack([month / horizon * ones, funding_ratio, short_rate,
                               state.key_rates[:, -1], state.inflation, state.spread], axis=1)
@@ -261,18 +286,23 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
         if scene.has("contributions"):
             assets = assets + config.contribution
         log_bank = carry.log_bank + short_rate * MONTH
-        return _Carry(after, assets, grown / growth[:, None], log_bank, penalty), None
+        month_start = (carry.assets, liability_now, carry.log_bank) if trajectory else None
+        return _Carry(after, assets, grown / growth[:, None], log_bank, penalty), month_start
 
     carry0 = _Carry(start, assets0 * ones, jnp.broadcast_to(held0 / assets0, (n_paths, 6)),
                     jnp.zeros(n_paths), jnp.zeros(n_paths))
     months = jnp.arange(horizon)
     steps = (shocks[:horizon], shocks[1:horizon + 1]) if problem.external_scenarios else shocks[:horizon]
-    final, _ = jax.lax.scan(jax.checkpoint(step), carry0, (months, steps))
+    final, month_starts = jax.lax.scan(jax.checkpoint(step), carry0, (months, steps))
     liability_end = liabilities(horizon, final.market)
     surplus = (final.assets - liability_end) * jnp.exp(-final.log_bank) / liability0
     gamma = config.risk_aversion
     utility = -jnp.expm1(-gamma * surplus) / gamma - final.penalty
-    return Outcome(final.assets / liability_end, surplus, final.penalty, utility)
+    path = None
+    if trajectory:
+        path = Trajectory(*(jnp.concatenate([series, end[None]]) for series, end in
+                            zip(month_starts, (final.assets, liability_end, final.log_bank))))
+    return Outcome(final.assets / liability_end, surplus, final.penalty, utility, path)
 
 
 def objective(reported: dict, policy: AbstractRebalancing, shocks, problem: ALMProblem,

@@ -112,7 +112,9 @@ def methods_section(data: dict) -> Section:
         Paragraph(("A pension fund over ", V(("horizon_months",), "d"), " monthly steps on ", V(("paths",), ",d"),
                    " Monte Carlo paths: Vasicek key rates, equity indices, inflation and a credit spread, correlated; "
                    "liabilities valued on the simulated curve; a neural rebalancing policy (or a fixed mix) sets the "
-                   "weights every month. Effects: ", V(("effects_text",)), ". The objective is the expected "
+                   "weights every month. Scenarios: ", V(("scenarios",)), "; fund: ", V(("fund",)), " (n/a: the "
+                   "built-in one), starting at a funding ratio of ", V(("initial_funding_ratio",), ".4f"),
+                   ". Effects: ", V(("effects_text",)), ". The objective is the expected "
                    "exponential utility of the discounted terminal surplus less a penalty on funding-ratio shortfalls "
                    "(docs/alm.md); reported with the exact constraints, and with the smooth surrogates used for "
                    "training and sensitivities."),),
@@ -134,8 +136,10 @@ def methods_section(data: dict) -> Section:
 
 
 def sections(data: dict) -> tuple[Section, ...]:
-    return (summary_section(data), outcome_section(data), ladder_section(data), policy_section(data),
-            methods_section(data))
+    from ._report_board import board_section
+
+    return (summary_section(data), outcome_section(data), board_section(data), ladder_section(data),
+            policy_section(data), methods_section(data))
 
 
 def _distribution_figure(data: dict):

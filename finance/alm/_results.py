@@ -70,7 +70,9 @@ class ALMStudy(Result):
     sit at the top level of the JSON). Carries the `policy` and the evaluation `shocks`. `fund`:
     the fund file's name (null: the built-in fund built for N); `initial_funding_ratio`: assets
     over liabilities at the start, valued as the simulation values them; `scenarios`: "generated"
-    or the scenario file the study ran on."""
+    or the scenario file the study ran on; `board`: the board's figures (`_board.board_figures`:
+    `funding_ratio_percentiles`, `p_underfunded`, `surplus_at_risk`, `hedge_ratio`,
+    `key_rate_durations`), top-level keys of the JSON."""
 
     n_risk_factors: int
     layout: dict
@@ -88,9 +90,10 @@ class ALMStudy(Result):
     fund: str | None = None
     initial_funding_ratio: float | None = None
     scenarios: str = "generated"
+    board: dict = field(json=False, default_factory=dict)
 
     def to_json(self) -> dict:
-        payload = {**super().to_json(), **self.evaluation.to_json(), **self.measurement.to_json()}
+        payload = {**super().to_json(), **self.evaluation.to_json(), **self.measurement.to_json(), **self.board}
         payload["compile_seconds"] = {**payload["compile_seconds"], "train": self.train_compile_seconds}
         return payload
 

@@ -32,6 +32,7 @@ from ._factors import (
 )
 from ._liabilities import MINIMUM_RUN_OFF_MONTHS, key_rate_profile
 from ._market import Market, correlated_shocks, key_tenors
+from ._board import BoardSettings, board_figures
 from ._fund_file import Fund, fund_holdings
 from ._scenario_file import ScenarioSet
 from ._scenarios import batch_drawer, on_devices, scenario_start, split_for_training
@@ -277,14 +278,16 @@ def study_for(n_risk_factors: int = 100, fund: Fund | None = None, horizon_month
 def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: int | None = None,
             bump: bool = False, train_steps: int = 0, train_paths: int = 256, seed: int = 0,
             progress: bool = True, checkpoint_path=None, resume: bool = False, mesh=None,
-            fund: Fund | None = None, scenario_set: ScenarioSet | None = None) -> ALMStudy:
+            fund: Fund | None = None, scenario_set: ScenarioSet | None = None,
+            board: BoardSettings | None = None) -> ALMStudy:
     """The `snapo alm` study of the built-in fund with `n_risk_factors` factors, or of `fund`
     (`load_fund`; its N follows from its files), on `n_paths` generated paths or on the given
     `scenario_set` of the fund (`load_scenarios`; then every scenario evaluates, or with training
     the second half, the first half training: `_scenarios.split_for_training`);
     `horizon_months` (default: 120, or the fund's); `checkpoint_path`, `resume`: of the training,
     see `snapo_ode.train`; `mesh`: the devices the paths are split over, see
-    `snapo_ode.sample_mesh`."""
+    `snapo_ode.sample_mesh`; `board`: where the board's figures are taken (default: the fund's,
+    or `BoardSettings()`)."""
     if scenario_set is not None and fund is None:
         raise InputError("given scenarios need the fund they were written for (fund=load_fund(...)).")
     check_count("paths", n_paths)
@@ -321,4 +324,5 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
         train_seconds=train_seconds, train_compile_seconds=train_compile,
         measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks,
         fund=None if fund is None else fund.name, scenarios="generated" if scenario_set is None else scenario_set.source,
-        initial_funding_ratio=initial_funding_ratio(study.problem, {**study.fixed, **study.reported}))
+        initial_funding_ratio=initial_funding_ratio(study.problem, {**study.fixed, **study.reported}),
+        board=board_figures(study, policy, shocks, board or (fund.board if fund is not None else BoardSettings())))

@@ -1,0 +1,88 @@
+"""The board's page of the ALM report: the funding-ratio fan chart, the probability of
+underfunding and surplus at risk at the board's dates, the hedge ratio and the key-rate
+durations (`_board.py` computes them; every number here is a `Value` into the JSON)."""
+
+from snapo_ode import Figure, Highlights, Paragraph, Section, Table, Value
+
+from ._factors import tenor_label
+
+V = Value
+
+
+def board_section(data: dict) -> Section:
+    dates = data["p_underfunded"]["months"]
+    last = len(dates) - 1
+    required = V(("p_underfunded", "required_funding_ratio"), "g")
+    cards = (("Hedge ratio: the assets' DV01 over the liabilities'", V(("hedge_ratio",), ".1%"),
+              ("a parallel shift of the key rates, at the start",)),
+             ("Probability of a funding ratio below one at the last date", V(("p_underfunded", "below_1", last), ".2%"),
+              ("month ", V(("p_underfunded", "months", last), "d"))),
+             ("Probability of a funding ratio below the required level at the last date",
+              V(("p_underfunded", "below_required", last), ".2%"), ("required: ", required)),
+             ("Surplus at risk at the first date", V(("surplus_at_risk", "surplus_at_risk", 0), ",.1f", " million"),
+              ("month ", V(("surplus_at_risk", "months", 0), "d"), ", confidence ",
+               V(("surplus_at_risk", "confidence"), ".1%"))))
+    rows = tuple((V(("p_underfunded", "months", k), "d"), V(("p_underfunded", "below_1", k), ".2%"),
+                  V(("p_underfunded", "below_required", k), ".2%"), V(("surplus_at_risk", "surplus_at_risk", k), ",.2f"),
+                  V(("surplus_at_risk", "expected_shortfall", k), ",.2f"))
+                 for k in range(len(dates)))
+    tenors = data["key_rate_durations"]["tenors"]
+    durations = tuple((V(("key_rate_durations", "tenors", k), ".3g", " y"), V(("key_rate_durations", "assets", k), ".3f"),
+                       V(("key_rate_durations", "liabilities", k), ".3f"), V(("key_rate_durations", "surplus", k), ".3f"),
+                       V(("key_rate_durations", "dv01", "surplus", k), ".4f"))
+                      for k in range(len(tenors)))
+    return Section("For the board", (
+        Highlights(cards),
+        Figure.from_matplotlib(_fan_figure(data), ("The funding ratio over the horizon under the studied policy: the "
+                                                   "median, the middle half and the middle nine-tenths of the paths, "
+                                                   "exact constraints",),
+                               "funding-ratio fan chart", width="80%"),
+        Table(("month", "P(funding ratio below one)", "P(below the required level)", "surplus at risk [million]",
+               "expected shortfall [million]"),
+              rows, ("At the board's dates (required level ", required, "): surplus at risk is the initial surplus less the ",
+                     V(("surplus_at_risk", "confidence"), ".1%"), "-confidence low quantile of the surplus discounted "
+                     "by the bank account; expected shortfall the initial surplus less the mean beyond it (initial "
+                     "surplus ", V(("surplus_at_risk", "initial_surplus"), ",.2f"), " million)"), csv="board.csv"),
+        Figure.from_matplotlib(_duration_figure(data), ("Key-rate durations at the start: -dV/dr per key tenor over "
+                                                        "the value (the surplus's over the liabilities)",),
+                               "key-rate durations", width="88%"),
+        Table(("key tenor", "assets [years]", "liabilities [years]", "surplus [years of liabilities]",
+               "surplus DV01 [million per bp]"), durations, ("Key-rate durations (forward-mode AD at the start)",)),
+        Paragraph(("Durations add up over the tenors to the parallel duration; the hedge ratio is the assets' parallel "
+                   "DV01 over the liabilities'.",), "note")))
+
+
+def _fan_figure(data: dict):
+    import matplotlib.pyplot as plt
+
+    fan = data["funding_ratio_percentiles"]
+    months = fan["months"]
+    figure, axis = plt.subplots(figsize=(6.4, 3.0))
+    axis.fill_between(months, fan["p05"], fan["p95"], color="#4c78a8", alpha=0.2, lw=0, label="5-95%")
+    axis.fill_between(months, fan["p25"], fan["p75"], color="#4c78a8", alpha=0.4, lw=0, label="25-75%")
+    axis.plot(months, fan["p50"], color="#1f3b73", lw=1.6, label="median")
+    axis.axhline(1.0, color="k", lw=0.8, ls=":")
+    axis.axhline(data["p_underfunded"]["required_funding_ratio"], color="#b22222", lw=0.8, ls="--", label="required")
+    axis.set_xlabel("month")
+    axis.set_ylabel("funding ratio")
+    axis.legend(fontsize=7, frameon=False, ncol=4)
+    figure.tight_layout()
+    return figure
+
+
+def _duration_figure(data: dict):
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    durations = data["key_rate_durations"]
+    labels = [tenor_label(t) for t in durations["tenors"]]
+    x = np.arange(len(labels))
+    figure, axis = plt.subplots(figsize=(7.0, 2.8))
+    for offset, key in ((-0.27, "assets"), (0.0, "liabilities"), (0.27, "surplus")):
+        axis.bar(x + offset, durations[key], width=0.27, label=key)
+    axis.axhline(0, color="k", lw=0.8)
+    axis.set_xticks(x, labels, rotation=60, fontsize=7)
+    axis.set_ylabel("years", fontsize=8)
+    axis.legend(fontsize=7, frameon=False)
+    figure.tight_layout()
+    return figure
