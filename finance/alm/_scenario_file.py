@@ -22,6 +22,7 @@ order); `.npz`, the arrays `values` (scenarios x times x variables), `times` (ye
 import os
 import pathlib
 import re
+import zipfile
 from typing import NamedTuple
 
 import numpy as np
@@ -72,8 +73,8 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
                     raise InputError(f"{where}: no array {missing[0]!r}; an NPZ scenario file holds 'values' "
                                      "(scenarios x times x variables), 'times' and 'variables'.")
                 values, times, names = data["values"], data["times"], [str(v) for v in data["variables"]]
-        except (OSError, ValueError) as error:
-            raise InputError(f"{where}: not a readable NPZ file ({error}).") from None
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
+            raise InputError(f"{where}: not a readable NPZ file ({type(error).__name__}: {error}).") from None
         if values.ndim != 3 or values.shape[1:] != (times.size, len(names)):
             raise InputError(f"{where}: values has shape {values.shape}; expected (scenarios, {times.size} times, "
                              f"{len(names)} variables).")
@@ -102,6 +103,10 @@ def _row(where, index, line_offset) -> str:
 
 
 def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    for column in ("scenario", "variable"):
+        empty = np.flatnonzero(table[column].isna().to_numpy() | (table[column].astype(str).str.strip() == ""))
+        if empty.size:
+            raise InputError(f"{_row(where, empty[0], line_offset)}: {column} is empty; every row names its {column}.")
     for column in ("time", "value"):
         numbers = pd.to_numeric(table[column], errors="coerce")
         bad = np.flatnonzero(~np.isfinite(numbers.to_numpy(float)))
