@@ -27,8 +27,8 @@ def alm_balance_sheet(study, key_rates=None) -> tuple[float, float]:
     """(assets, liabilities) [million] of an ALM study at the start, written from docs/alm.md in
     NumPy (on `key_rates` instead of the study's, when given): each monthly benefit mapped
     linearly onto its two key tenors, discounted at the key rates, the indexed share grown at the
-    initial inflation; bonds at exp(-y tau) with y interpolated (plus the spread for credit), the
-    inflation-linked bucket at the real yield; equities at their levels."""
+    initial inflation; each bond class at exp(-y tau) with y interpolated (plus the spread for
+    credit), inflation-linked ones at the real yield; cash at 1; equities at their levels."""
     factors = {k: np.asarray(v, float) for k, v in {**study.fixed, **study.reported}.items()}
     market, config = study.market, study.problem.config
     tenors = market.tenors
@@ -47,11 +47,11 @@ def alm_balance_sheet(study, key_rates=None) -> tuple[float, float]:
     def y(tau):
         return np.interp(tau, tenors, rates)
 
-    short, long = market.bond_maturities
     spread = factors["spread"] if study.problem.scene.has("credit") else 0.0
-    prices = [1.0, np.exp(-y(short) * short), np.exp(-y(long) * long),
-              np.exp(-(y(market.inflation_linked_maturity) - factors["inflation"]) * market.inflation_linked_maturity),
-              np.exp(-(y(market.credit_maturity) + spread) * market.credit_maturity), *factors["equity_levels"]]
+    extra = {"cash": None, "nominal": 0.0, "inflation_linked": -factors["inflation"], "credit": spread}
+    prices = [1.0 if c.kind == "cash" else np.exp(-(y(c.maturity) + extra[c.kind]) * c.maturity)
+              for c in market.asset_classes[:-1]]
+    prices += list(factors["equity_levels"])
     return float(np.sum(factors["holdings"] * np.array(prices))), float(liability)
 
 

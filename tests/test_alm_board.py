@@ -37,10 +37,8 @@ def test_key_rate_durations_and_hedge_ratio_equal_bumps_of_a_numpy_balance_sheet
     np.testing.assert_allclose(durations["dv01"]["liabilities"], -slopes[1] * 1e-4, rtol=1e-6, atol=1e-12)
     assert figures["hedge_ratio"] == pytest.approx(slopes[0].sum() / slopes[1].sum(), rel=1e-7)
     # Closed form: the assets' duration is the mix's value-weighted maturity (cash and equities 0).
-    market = study.market
-    mix = alm.DEFAULT_MIX
-    expected = (mix["bond_short"] * market.bond_maturities[0] + mix["bond_long"] * market.bond_maturities[1]
-                + mix["inflation_linked"] * market.inflation_linked_maturity + mix["credit"] * market.credit_maturity)
+    expected = sum(alm.DEFAULT_MIX[c.name] * c.maturity for c in study.market.bond_classes)
+    assert expected == pytest.approx(0.15 * 5 + 0.30 * 30 + 0.10 * 20 + 0.10 * 7, rel=1e-15)
     assert sum(durations["assets"]) == pytest.approx(expected, rel=1e-12)
 
 

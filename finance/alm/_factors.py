@@ -44,17 +44,19 @@ class FactorLayout(NamedTuple):
     """Sizes of the factor groups and which groups are reported (differentiated).
 
     `n_tenors` key rates, `n_equities` indices, `n_liability` liability buckets; `reported` in the
-    order of `GROUPS`."""
+    order of `GROUPS`; `n_plain_assets`, the asset classes before the equity sleeve (holdings are
+    one per such class and one per index)."""
 
     n_tenors: int
     n_equities: int
     n_liability: int
     reported: tuple[str, ...]
+    n_plain_assets: int = len(ASSETS) - 1
 
     def size(self, group: str) -> int:
         sizes = dict(key_rates=self.n_tenors, rate_vols=self.n_tenors, equity_levels=self.n_equities,
                      equity_vols=self.n_equities, liability_cash_flows=self.n_liability,
-                     holdings=len(ASSETS) - 1 + self.n_equities)
+                     holdings=self.n_plain_assets + self.n_equities)
         return sizes.get(group, 1)
 
     @property
@@ -92,15 +94,16 @@ def holdings_at_funding_ratio(factors: dict, market: Market, funding_ratio: floa
                               credit: bool = True) -> np.ndarray:
     """Units held of each asset (cash, the four bond buckets, then each equity index), shape
     (5 + n_equities,), so that the fund starts at `funding_ratio` with the asset classes' values
-    in the proportions `mix` (keys `ASSETS`, summing to 1; the equity share split equally over the
+    in the proportions `mix` (keys `market.asset_names`, summing to 1; the equity share split equally over the
     indices), its liabilities valued as the simulation values them at the start: on the initial
     curve, with the `indexation` share indexed (None: the indexation effect is off), the credit
     bucket at its spread (`credit`: the credit effect is on)."""
     liability = initial_liability_value(factors, market, schedule, indexation)
-    values = funding_ratio * liability * np.array([mix[asset] for asset in ASSETS])
+    values = funding_ratio * liability * np.array([mix[asset] for asset in market.asset_names])
     prices = np.asarray(initial_prices(factors, market, credit=credit))
     equity_value = values[-1] / market.n_equities
-    return np.concatenate([values[:-1] / prices[:len(ASSETS) - 1], equity_value / np.asarray(factors["equity_levels"])])
+    plain = len(market.asset_names) - 1
+    return np.concatenate([values[:-1] / prices[:plain], equity_value / np.asarray(factors["equity_levels"])])
 
 
 def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: float = 1.1,
@@ -191,7 +194,7 @@ def factor_names(layout: FactorLayout, market: Market, schedule: LiabilitySchedu
         spread=["spread"],
         spread_vol=["spread_vol"],
         liability_cash_flows=[f"liability_cash_flow_{name}" for name in schedule.names],
-        holdings=[f"holding_{a}" for a in ASSETS[:-1]] + [f"holding_{e}" for e in equities],
+        holdings=[f"holding_{a}" for a in market.asset_names[:-1]] + [f"holding_{e}" for e in equities],
     )
 
 

@@ -26,7 +26,7 @@ from ._board import BoardSettings
 from ._factors import DEFAULT_MIX, holdings_at_funding_ratio
 from ._liabilities import LiabilitySchedule
 from ._liability_file import load_liabilities
-from ._market import ASSETS, Market
+from ._market import ASSETS, AssetClass, Market, check_asset_classes
 from ._model import EFFECTS, MAX_HORIZON_MONTHS, ALMConfig, indexed_share
 from ._units import in_millions
 
@@ -74,9 +74,20 @@ class LiabilitiesSection(_Section):
     valuation_date: datetime.date | None = None
 
 
+class AssetClassEntry(_Section):
+    """One asset class: `name`, `kind` (cash, nominal, inflation_linked, credit, equity) and, for
+    the bond kinds, `maturity` [years] (`AssetClass`)."""
+
+    name: Name
+    kind: str
+    maturity: FiniteNumber | None = None
+
+
 class AssetsSection(_Section):
     """The asset classes' maturities, weight bounds, and the starting holdings: either
-    `initial_funding_ratio` with the `mix` of the asset classes' values (keys `ASSETS`, summing to
+    `classes`, the asset classes the policy weights (default the built-in six, `ASSETS`, at
+    `bond_maturities`, `inflation_linked_maturity` and `credit_maturity`), and either
+    `initial_funding_ratio` with the `mix` of the asset classes' values (keys the class names, summing to
     1), or `holdings`, each asset's market value (cash, the four bond buckets and each equity
     index by name) in `holdings_unit`. The funding ratio values the liabilities as the
     simulation does at the start, with the study's effects (the indexed share of the benefits,
@@ -86,6 +97,7 @@ class AssetsSection(_Section):
     inflation_linked_maturity: FiniteNumber = 20.0
     credit_maturity: FiniteNumber = 7.0
     credit_loss_fraction: FiniteNumber = 0.4
+    classes: list[AssetClassEntry] | None = None
     weight_bounds: dict[str, Bounds] | None = None
     initial_funding_ratio: FiniteNumber | None = None
     mix: dict[str, FiniteNumber] | None = None
@@ -160,11 +172,21 @@ def _keys(where: str, field: str, given: dict, allowed: tuple[str, ...]) -> None
 
 
 def _market(section: MarketSection, assets: AssetsSection, where: str) -> Market:
-    bounds = None
+    classes = None if assets.classes is None else tuple(
+        AssetClass(c.name, c.kind, c.maturity) for c in assets.classes)
+    both = {"bond_maturities", "inflation_linked_maturity", "credit_maturity"} & assets.model_fields_set
+    if classes is not None and both:
+        raise InputError(f"{where}: assets.{sorted(both)[0]} with assets.classes: the classes carry their own "
+                         "maturities; give one of the two.")
+    try:
+        names = ASSETS if classes is None else tuple(c.name for c in check_asset_classes(classes))
+    except InputError as error:
+        raise InputError(f"{where}: assets.classes: {error}") from None
+    bounds = {}
     if assets.weight_bounds is not None:
-        _keys(where, "assets.weight_bounds", assets.weight_bounds, ASSETS)
-        bounds = dict(weight_low=tuple(assets.weight_bounds[a][0] for a in ASSETS),
-                      weight_high=tuple(assets.weight_bounds[a][1] for a in ASSETS))
+        _keys(where, "assets.weight_bounds", assets.weight_bounds, names)
+        bounds = dict(weight_low=tuple(assets.weight_bounds[a][0] for a in names),
+                      weight_high=tuple(assets.weight_bounds[a][1] for a in names))
     try:
         return Market(np.asarray(section.key_tenors, float), len(section.equities),
                       correlation=None if section.correlation is None else np.asarray(section.correlation, float),
@@ -174,7 +196,7 @@ def _market(section: MarketSection, assets: AssetsSection, where: str) -> Market
                       bond_maturities=tuple(assets.bond_maturities),
                       inflation_linked_maturity=assets.inflation_linked_maturity,
                       credit_maturity=assets.credit_maturity, credit_loss_fraction=assets.credit_loss_fraction,
-                      equity_names=tuple(e.name for e in section.equities), **(bounds or {}))
+                      equity_names=tuple(e.name for e in section.equities), asset_classes=classes, **bounds)
     except InputError as error:
         raise InputError(f"{where}: {error}") from None
 
@@ -183,11 +205,13 @@ def _check_assets(assets: AssetsSection, market: Market, where: str) -> None:
     if (assets.holdings is None) == (assets.initial_funding_ratio is None):
         raise InputError(f"{where}: assets needs exactly one of initial_funding_ratio (with mix) and holdings.")
     if assets.holdings is not None:
-        _keys(where, "assets.holdings", assets.holdings, (*ASSETS[:-1], *market.equity_names))
+        _keys(where, "assets.holdings", assets.holdings, (*market.asset_names[:-1], *market.equity_names))
         in_millions(assets.holdings_unit, f"{where}: assets.holdings_unit")
         return
     mix = DEFAULT_MIX if assets.mix is None else assets.mix
-    _keys(where, "assets.mix", mix, ASSETS)
+    if assets.mix is None and market.asset_names != ASSETS:
+        raise InputError(f"{where}: assets.mix is needed for the asset classes {list(market.asset_names)}.")
+    _keys(where, "assets.mix", mix, market.asset_names)
     if min(mix.values()) < 0 or abs(sum(mix.values()) - 1.0) > 1e-9:
         raise InputError(f"{where}: assets.mix = {mix}; allowed: weights >= 0 summing to 1.")
     if not 0.0 < assets.initial_funding_ratio <= 10.0:
@@ -200,10 +224,10 @@ def fund_holdings(fund: Fund, factors: dict, scene) -> np.ndarray:
     the simulation values them under `scene` on the initial market of `factors`."""
     assets, market = fund.assets, fund.market
     if assets.holdings is not None:
-        names = (*ASSETS[:-1], *market.equity_names)
+        names = (*market.asset_names[:-1], *market.equity_names)
         values = np.array([assets.holdings[name] for name in names]) * in_millions(assets.holdings_unit, "holdings_unit")
         prices = initial_prices(factors, market, credit=scene.has("credit"))
-        return values / np.concatenate([np.asarray(prices)[:len(ASSETS) - 1],
+        return values / np.concatenate([np.asarray(prices)[:len(market.asset_names) - 1],
                                         np.asarray(factors["equity_levels"])])
     mix = DEFAULT_MIX if assets.mix is None else assets.mix
     return holdings_at_funding_ratio(factors, market, assets.initial_funding_ratio, mix, fund.schedule,

@@ -15,6 +15,7 @@ model's million/month paid over the row's months).
 
 import datetime
 import io
+import math
 import os
 import warnings
 from typing import NamedTuple
@@ -100,8 +101,8 @@ def load_liabilities(path: str | os.PathLike, cash_flow_unit: str = "million / m
             continue
         where = f"liability file {path}, line {index + 2}"
         text = row["cash_flow"].strip()
-        if DECIMAL.fullmatch(text) is None or float(text) < 0:
-            raise InputError(f"{where}: cash_flow = {row['cash_flow']!r}; allowed: a decimal number >= 0.")
+        if DECIMAL.fullmatch(text) is None or not 0 <= float(text) < math.inf:
+            raise InputError(f"{where}: cash_flow = {row['cash_flow']!r}; allowed: a finite decimal number >= 0.")
         start, end = _months_of(period[0], row, where, valuation_date)
         if end > MAX_RUN_OFF_MONTHS:
             raise InputError(f"{where}: the row pays in month {end}; allowed: up to {MAX_RUN_OFF_MONTHS} "

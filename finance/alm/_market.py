@@ -6,6 +6,8 @@ months. Everything here is fixed model structure: the risk factors whose sensiti
 reported live in `_factors.py`.
 """
 
+from typing import NamedTuple
+
 import equinox as eqx
 import jax
 import numpy as np
@@ -14,7 +16,50 @@ from snapo_ode import InputError, check_finite, check_range
 
 MONTH = 1.0 / 12.0
 RATE_DRIVERS = ("rate_level", "rate_slope", "rate_curvature")
-ASSETS = ("cash", "bond_short", "bond_long", "inflation_linked", "credit", "equity")
+ASSETS = ("cash", "bond_short", "bond_long", "inflation_linked", "credit", "equity")  # the built-in fund's classes
+ASSET_KINDS = ("cash", "nominal", "inflation_linked", "credit", "equity")
+
+
+class AssetClass(NamedTuple):
+    """One asset class the policy weights: its `name`, `kind` (`ASSET_KINDS`: cash earns the
+    short rate; `nominal`, `inflation_linked` and `credit` are constant-maturity zero-coupon
+    buckets of `maturity` [years] priced off the simulated curve (real yields; plus the spread),
+    rolled monthly; `equity` is the equal-weight sleeve over the equity indices, the last class)."""
+
+    name: str
+    kind: str
+    maturity: float | None = None
+
+
+def default_asset_classes(bond_maturities=(5.0, 30.0), inflation_linked_maturity=20.0,
+                          credit_maturity=7.0) -> tuple[AssetClass, ...]:
+    """The built-in fund's six classes, `ASSETS`."""
+    short, long = bond_maturities
+    return (AssetClass("cash", "cash"), AssetClass("bond_short", "nominal", float(short)),
+            AssetClass("bond_long", "nominal", float(long)),
+            AssetClass("inflation_linked", "inflation_linked", float(inflation_linked_maturity)),
+            AssetClass("credit", "credit", float(credit_maturity)), AssetClass("equity", "equity"))
+
+
+def check_asset_classes(classes) -> tuple[AssetClass, ...]:
+    """The classes as `AssetClass`es, or `InputError` naming the class: distinct names, known
+    kinds, maturities in (1 month, 100 years] for the bond kinds (none for cash and equity), and
+    exactly one equity class, the last."""
+    classes = tuple(AssetClass(*c) for c in classes)
+    names = [c.name for c in classes]
+    if len(set(names)) != len(names) or len(classes) < 2:
+        raise InputError(f"asset classes {names}: at least two, with distinct names.")
+    for c in classes:
+        if c.kind not in ASSET_KINDS:
+            raise InputError(f"asset class {c.name!r}: kind = {c.kind!r}; allowed: {', '.join(ASSET_KINDS)}.")
+        bond = c.kind in ("nominal", "inflation_linked", "credit")
+        if bond != (c.maturity is not None) or (bond and not MONTH < c.maturity <= 100.0):
+            raise InputError(f"asset class {c.name!r}: maturity = {c.maturity!r}; allowed: (1/12, 100] years for a "
+                             "bond kind, none for cash and equity.")
+    if [c.kind for c in classes].count("equity") != 1 or classes[-1].kind != "equity":
+        raise InputError(f"asset classes {names}: exactly one of kind 'equity' (the sleeve over the equity "
+                         "indices), the last.")
+    return classes
 
 
 def key_tenors(n_tenors: int) -> np.ndarray:
@@ -131,9 +176,11 @@ class Market(eqx.Module):
     - `equity_premium` [1/year]: expected equity return over the short rate.
     - `bond_maturities` [years]: the constant-maturity short and long nominal zero-coupon buckets.
     - `inflation_linked_maturity`, `credit_maturity` [years].
+    - `asset_classes`: the classes the policy weights (`AssetClass`es; default
+      `default_asset_classes` of the three maturities above).
     - `credit_loss_fraction`: share of the credit spread lost to defaults (the rest is earned).
-    - `weight_low`, `weight_high`: per-asset portfolio weight bounds, shape (6,) in the order of
-      `ASSETS`; they must admit weights summing to 1.
+    - `weight_low`, `weight_high`: per-class portfolio weight bounds, one per asset class in
+      order; they must admit weights summing to 1 (default: the built-in six's).
     - `equity_names`: the indices' names, as factor names and reports show them (default
       "equity_0", "equity_1", ...).
 
@@ -148,9 +195,7 @@ class Market(eqx.Module):
     inflation_mean_reversion: float = eqx.field(static=True)
     spread_mean_reversion: float = eqx.field(static=True)
     equity_premium: float = eqx.field(static=True)
-    bond_maturities: tuple[float, float] = eqx.field(static=True)
-    inflation_linked_maturity: float = eqx.field(static=True)
-    credit_maturity: float = eqx.field(static=True)
+    asset_classes: tuple[AssetClass, ...] = eqx.field(static=True)
     credit_loss_fraction: float = eqx.field(static=True)
     weight_low: tuple[float, ...] = eqx.field(static=True)
     weight_high: tuple[float, ...] = eqx.field(static=True)
@@ -170,9 +215,10 @@ class Market(eqx.Module):
         inflation_linked_maturity: float = 20.0,
         credit_maturity: float = 7.0,
         credit_loss_fraction: float = 0.4,
-        weight_low=(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
-        weight_high=(0.3, 0.6, 0.9, 0.5, 0.3, 0.7),
+        weight_low=None,
+        weight_high=None,
         equity_names=None,
+        asset_classes=None,
     ):
         tenors = check_range("tenors", tenors, 0.0, low_open=True)
         if tenors.ndim != 1 or np.any(np.diff(tenors) <= 0):
@@ -191,16 +237,24 @@ class Market(eqx.Module):
         check_range("bond_maturities", bond_maturities, MONTH, 100.0, low_open=True)
         check_range("inflation_linked_maturity", inflation_linked_maturity, MONTH, 100.0, low_open=True)
         check_range("credit_maturity", credit_maturity, MONTH, 100.0, low_open=True)
+        classes = check_asset_classes(default_asset_classes(bond_maturities, inflation_linked_maturity, credit_maturity)
+                                      if asset_classes is None else asset_classes)
+        names = tuple(c.name for c in classes)
+        if names == ASSETS:  # the built-in classes' bounds, where not given
+            weight_low = (0.0,) * 6 if weight_low is None else weight_low
+            weight_high = (0.3, 0.6, 0.9, 0.5, 0.3, 0.7) if weight_high is None else weight_high
+        elif weight_low is None or weight_high is None:
+            raise InputError(f"weight_low and weight_high: needed for the asset classes {list(names)}.")
         check_range("credit_loss_fraction", credit_loss_fraction, 0.0, 1.0)
         low = check_range("weight_low", weight_low, 0.0, 1.0)
         high = check_range("weight_high", weight_high, 0.0, 1.0)
-        if low.shape != (len(ASSETS),) or high.shape != (len(ASSETS),):
-            raise InputError(f"weight_low and weight_high need one entry per asset {ASSETS}; got "
+        if low.shape != (len(names),) or high.shape != (len(names),):
+            raise InputError(f"weight_low and weight_high need one entry per asset class {names}; got "
                              f"shapes {low.shape} and {high.shape}.")
         if np.any(high <= low):
             i = int(np.argmax(high <= low))
             raise InputError(f"weight_high[{i}] = {high[i]:g} must exceed weight_low[{i}] = "
-                             f"{low[i]:g} ({ASSETS[i]}).")
+                             f"{low[i]:g} ({names[i]}).")
         if not low.sum() < 1.0 < high.sum():
             raise InputError(f"weight bounds cannot sum to 1: sum(weight_low) = {low.sum():g} and "
                              f"sum(weight_high) = {high.sum():g}; allowed: sum(weight_low) < 1 < "
@@ -212,9 +266,7 @@ class Market(eqx.Module):
         self.inflation_mean_reversion = float(inflation_mean_reversion)
         self.spread_mean_reversion = float(spread_mean_reversion)
         self.equity_premium = float(equity_premium)
-        self.bond_maturities = tuple(float(m) for m in np.ravel(bond_maturities))
-        self.inflation_linked_maturity = float(inflation_linked_maturity)
-        self.credit_maturity = float(credit_maturity)
+        self.asset_classes = classes
         self.credit_loss_fraction = float(credit_loss_fraction)
         self.weight_low = tuple(map(float, low))
         self.weight_high = tuple(map(float, high))
@@ -222,6 +274,16 @@ class Market(eqx.Module):
         if len(names) != n_equities or len(set(names)) != n_equities:
             raise InputError(f"equity_names = {list(names)}: expected {n_equities} distinct names.")
         self.equity_names = names
+
+    @property
+    def asset_names(self) -> tuple[str, ...]:
+        """The asset classes' names, in the policy's order."""
+        return tuple(c.name for c in self.asset_classes)
+
+    @property
+    def bond_classes(self) -> tuple[AssetClass, ...]:
+        """The classes priced off the curve (kinds nominal, inflation_linked, credit), in order."""
+        return tuple(c for c in self.asset_classes if c.maturity is not None)
 
     @property
     def tenors(self) -> np.ndarray:

@@ -247,7 +247,8 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
     start = MarketState(jnp.broadcast_to(key_rates0, (n_paths, key_rates0.size)),
                         inflation0 * ones, ones, spread0 * ones)
     value0 = factors["holdings"] * initial_prices(factors, market, credit=credit)
-    held0 = jnp.concatenate([value0[:5], jnp.sum(value0[5:], keepdims=True)])
+    plain = len(market.asset_classes) - 1  # the classes before the equity sleeve
+    held0 = jnp.concatenate([value0[:plain], jnp.sum(value0[plain:], keepdims=True)])
     assets0 = jnp.sum(value0)
     liability0 = liabilities(0, start)
 
@@ -289,7 +290,7 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
         month_start = (carry.assets, liability_now, carry.log_bank) if trajectory else None
         return _Carry(after, assets, grown / growth[:, None], log_bank, penalty), month_start
 
-    carry0 = _Carry(start, assets0 * ones, jnp.broadcast_to(held0 / assets0, (n_paths, 6)),
+    carry0 = _Carry(start, assets0 * ones, jnp.broadcast_to(held0 / assets0, (n_paths, plain + 1)),
                     jnp.zeros(n_paths), jnp.zeros(n_paths))
     months = jnp.arange(horizon)
     steps = (shocks[:horizon], shocks[1:horizon + 1]) if problem.external_scenarios else shocks[:horizon]

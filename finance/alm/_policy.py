@@ -1,4 +1,5 @@
-"""Rebalancing policies: features of the fund's state -> portfolio weights over `ASSETS`.
+"""Rebalancing policies: features of the fund's state -> portfolio weights over the market's
+asset classes (`Market.asset_classes`).
 
 `NeuralRebalancing` maps an MLP's logits to weights inside per-asset bounds that sum to 1;
 `FixedMix` holds constant weights (the 60/40 and liability-matching baselines).
@@ -13,7 +14,7 @@ import numpy as np
 
 from snapo_ode import InputError, MLPPolicy, check_range
 
-from ._market import ASSETS, Market
+from ._market import Market, default_asset_classes
 
 FEATURES = ("time", "funding_ratio", "short_rate", "long_rate", "inflation", "spread")
 FEATURE_OFFSET = (0.5, 1.0, 0.03, 0.04, 0.02, 0.012)
@@ -63,7 +64,7 @@ def bounded_weights(logits, low, high):
 
 class AbstractRebalancing(eqx.Module):
     """A rebalancing policy: features, shape (paths, len(FEATURES)), in the order of `FEATURES`
-    -> target weights, shape (paths, len(ASSETS)), summing to 1."""
+    -> target weights, shape (paths, asset classes), summing to 1."""
 
     @abc.abstractmethod
     def __call__(self, features: jax.Array) -> jax.Array:
@@ -81,7 +82,7 @@ class NeuralRebalancing(AbstractRebalancing):
     weight_high: tuple[float, ...] = eqx.field(static=True)
 
     def __init__(self, market: Market, *, key, width: int = 32, depth: int = 2):
-        self.network = MLPPolicy(len(FEATURES), len(ASSETS), key=key, width=width, depth=depth,
+        self.network = MLPPolicy(len(FEATURES), len(market.asset_classes), key=key, width=width, depth=depth,
                                  feature_offset=FEATURE_OFFSET, feature_scale=FEATURE_SCALE)
         self.weight_low = market.weight_low
         self.weight_high = market.weight_high
@@ -93,30 +94,53 @@ class NeuralRebalancing(AbstractRebalancing):
 class FixedMix(AbstractRebalancing):
     """Constant target weights, rebalanced to every month.
 
-    **Arguments:** `weights`, shape (len(ASSETS),), non-negative, summing to 1.
+    **Arguments:** `weights`, one per asset class, non-negative, summing to 1.
     """
 
     weights: jax.Array
 
     def __init__(self, weights):
         weights = check_range("weights", weights, 0.0, 1.0)
-        if weights.shape != (len(ASSETS),) or abs(weights.sum() - 1.0) > 1e-12:
-            raise InputError(f"weights = {weights} must have one entry per asset {ASSETS} and "
-                             "sum to 1.")
+        if weights.ndim != 1 or abs(weights.sum() - 1.0) > 1e-12:
+            raise InputError(f"weights = {weights} must have one entry per asset class and sum to 1.")
         self.weights = jnp.asarray(weights)
 
     def __call__(self, features):
-        return jnp.broadcast_to(self.weights, (features.shape[0], len(ASSETS)))
+        return jnp.broadcast_to(self.weights, (features.shape[0], self.weights.size))
 
 
-def sixty_forty() -> FixedMix:
-    """60% equities, 40% nominal bonds (half short, half long)."""
-    return FixedMix([0.0, 0.2, 0.2, 0.0, 0.0, 0.6])
+def _bonds_for_matching(classes) -> list[int]:
+    """The classes a fixed mix holds as bonds: the nominal ones, or without any, every bond class."""
+    nominal = [k for k, c in enumerate(classes) if c.kind == "nominal"]
+    return nominal or [k for k, c in enumerate(classes) if c.maturity is not None]
+
+
+def sixty_forty(market: Market | None = None) -> FixedMix:
+    """60% equities, 40% split equally over the nominal classes (the built-in fund's, without a
+    `market`: half short, half long; cash where a market has no bond class)."""
+    classes = default_asset_classes() if market is None else market.asset_classes
+    weights = np.zeros(len(classes))
+    weights[-1] = 0.6
+    bonds = _bonds_for_matching(classes) or [0]
+    weights[bonds] += 0.4 / len(bonds)
+    return FixedMix(weights)
 
 
 def liability_matching(market: Market, liability_duration: float) -> FixedMix:
-    """80% in nominal short and long buckets mixed so that their duration equals
-    `liability_duration` [years] (clipped to the buckets' range), 20% equities."""
-    short, long = market.bond_maturities
-    share_long = float(np.clip((liability_duration - short) / (long - short), 0.0, 1.0))
-    return FixedMix([0.0, 0.8 * (1 - share_long), 0.8 * share_long, 0.0, 0.0, 0.2])
+    """80% in the shortest and longest nominal classes mixed so that their duration equals
+    `liability_duration` [years] (clipped to their range; cash without a bond class), 20%
+    equities."""
+    classes = market.asset_classes
+    bonds = _bonds_for_matching(classes)
+    weights = np.zeros(len(classes))
+    weights[-1] = 0.2
+    if not bonds:
+        weights[0] += 0.8
+        return FixedMix(weights)
+    maturities = [classes[k].maturity for k in bonds]
+    low, high = bonds[int(np.argmin(maturities))], bonds[int(np.argmax(maturities))]
+    short, long = min(maturities), max(maturities)
+    share_long = float(np.clip((liability_duration - short) / (long - short), 0.0, 1.0)) if long > short else 1.0
+    weights[low] += 0.8 * (1 - share_long)
+    weights[high] += 0.8 * share_long
+    return FixedMix(weights)

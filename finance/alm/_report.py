@@ -16,7 +16,7 @@ from snapo_ode import Report, mesh_of, per_sample, sample_mean, to_host, value_a
 
 from ._assets import zero_rate
 from ._factors import factor_names, named_sensitivities
-from ._market import ASSETS, MONTH
+from ._market import MONTH
 from ._model import simulate
 from ._sensitivities import PATH_SPECS
 from ._study import baselines, run_alm, study_for
@@ -48,7 +48,7 @@ def policy_map(study, policy) -> dict:
                           jnp.full(n, zero_rate(rates, study.market, MONTH)[0]), jnp.full(n, rates[0, -1]),
                           jnp.full(n, factors["inflation"]), jnp.full(n, factors["spread"])], axis=1)
     weights = np.asarray(policy(features))
-    return {asset: weights[:, k].tolist() for k, asset in enumerate(ASSETS)}
+    return {asset: weights[:, k].tolist() for k, asset in enumerate(study.market.asset_names)}
 
 
 def terminal_funding_ratios(study, policies: dict, shocks) -> dict:
@@ -106,6 +106,7 @@ def build_alm_report(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_
         funding_ratio_adjoint_seconds=timing.median_seconds,
         ladder=ladder(data["sensitivities"], funding_sensitivities, names, study.reported),
         key_tenors=[float(t) for t in study.market.tenors],
+        asset_classes=list(study.market.asset_names),
         factor_groups={group: names[group] for group in study.layout.reported},
         policy_map={"funding_ratio": FUNDING_RATIOS.tolist(),
                     "weights": {name: policy_map(study, policy) for name, policy in policies.items()}},

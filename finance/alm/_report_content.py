@@ -7,7 +7,6 @@ import numpy as np
 from snapo_ode import Figure, Heading, Highlights, Paragraph, Section, Table, Value
 
 from ._factors import tenor_label
-from ._market import ASSETS
 
 V = Value
 GROUP_TITLES = {"key_rates": "Key rates", "inflation": "Inflation", "spread": "Credit spread",
@@ -96,14 +95,14 @@ def policy_section(data: dict) -> Section:
     for name in data["policy_names"]:
         for k in columns:
             rows.append((name, V(("policy_map", "funding_ratio", k), ".3g"),
-                         *(V(("policy_map", "weights", name, asset, k), ".1%") for asset in ASSETS)))
+                         *(V(("policy_map", "weights", name, asset, k), ".1%") for asset in data["asset_classes"])))
     return Section("Policy behaviour", (
         Paragraph(("What each policy holds at the start as a function of the funding ratio, the market at its "
                    "initial state. A fixed mix holds the same weights whatever the funding ratio; the neural "
                    "policy reacts to it.",),),
         Figure.from_matplotlib(_policy_figure(data), ("Weights against the funding ratio at the start",),
                                "policy weights against the funding ratio", width="95%"),
-        Table(("policy", "funding ratio", *ASSETS), tuple(rows), ("Weights at a few funding ratios",))))
+        Table(("policy", "funding ratio", *data["asset_classes"]), tuple(rows), ("Weights at a few funding ratios",))))
 
 
 def methods_section(data: dict) -> Section:
@@ -182,7 +181,8 @@ def _policy_figure(data: dict):
     figure, axes = plt.subplots(1, len(names), figsize=(3.0 * len(names), 2.8), sharey=True)
     for axis, name in zip(np.atleast_1d(axes), names, strict=True):
         weights = data["policy_map"]["weights"][name]
-        axis.stackplot(ratios, *(weights[a] for a in ASSETS), labels=ASSETS, alpha=0.85)
+        assets = data["asset_classes"]
+        axis.stackplot(ratios, *(weights[a] for a in assets), labels=assets, alpha=0.85)
         axis.set_title(name, fontsize=9)
         axis.set_xlabel("funding ratio", fontsize=8)
         axis.set_xlim(ratios[0], ratios[-1])

@@ -116,7 +116,7 @@ def build_fund_study(fund: Fund, *, horizon_months: int | None = None, effects=N
     require_float64("ALM studies")
     market = fund.market
     layout = FactorLayout(market.n_tenors, market.n_equities, fund.schedule.n_rows,
-                          GROUPS if scenario_set is None else SCENARIO_GROUPS)
+                          GROUPS if scenario_set is None else SCENARIO_GROUPS, len(market.asset_classes) - 1)
     horizon = fund.horizon_months if horizon_months is None else horizon_months
     check_size(layout, horizon)
     scene = EFFECTS.scene(fund.effects if effects is None else effects, without=without)
@@ -162,7 +162,7 @@ def liability_duration(study: Study) -> float:
 
 def baselines(study: Study) -> dict[str, AbstractRebalancing]:
     """The fixed-mix policies the trained one is compared with."""
-    return {"sixty_forty": sixty_forty(),
+    return {"sixty_forty": sixty_forty(study.market),
             "liability_matching": liability_matching(study.market, liability_duration(study))}
 
 
