@@ -26,8 +26,8 @@ class BoardSettings(Settings):
     **Arguments:**
     - `required_funding_ratio`: the level the regulator requires (`p_underfunded` reports the
       probability of ending a date below it, beside below 1).
-    - `months`: the dates [month-ends] of `p_underfunded` and `surplus_at_risk`; None: every 12
-      months and the horizon.
+    - `months`: the dates [month-ends] of `p_underfunded` and `surplus_at_risk` (those within a
+      study's horizon); None: every 12 months and the horizon.
     - `confidence`: of surplus at risk and expected shortfall, in (0.5, 1).
     """
 
@@ -42,13 +42,12 @@ class BoardSettings(Settings):
             raise InputError(f"board months = {list(self.months)}; allowed: one or more month-ends >= 1.")
 
     def dates(self, horizon: int) -> list[int]:
-        """The month-ends the date figures are taken at, within the horizon."""
+        """The month-ends the date figures are taken at: `months` within the horizon (a study run
+        over a shorter horizon than its fund file's keeps those it reaches; the horizon where it
+        reaches none), or every 12 months and the horizon."""
         if self.months is None:
             return sorted({*range(12, horizon + 1, 12), horizon})
-        late = [m for m in self.months if m > horizon]
-        if late:
-            raise InputError(f"board months {late} lie beyond the horizon of {horizon} months.")
-        return sorted(set(self.months))
+        return sorted({m for m in self.months if m <= horizon} or {horizon})
 
 
 @eqx.filter_jit

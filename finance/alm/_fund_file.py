@@ -265,8 +265,9 @@ def load_fund(path: str | os.PathLike) -> Fund:
         EFFECTS.scene(effects)
         board = BoardSettings(spec.board.required_funding_ratio,
                               None if spec.board.months is None else tuple(spec.board.months), spec.board.confidence)
-        if spec.board.months is not None:
-            board.dates(spec.horizon_months)
+        late = [m for m in spec.board.months or () if m > spec.horizon_months]
+        if late:
+            raise InputError(f"board.months {late} lie beyond horizon_months = {spec.horizon_months}.")
     except InputError as error:
         raise InputError(f"{where}: {error}") from None
     _check_assets(spec.assets, market, where)
