@@ -115,6 +115,8 @@ class ObjectiveSection(_Section):
     funding_floor: FiniteNumber | None = None
     floor_penalty: FiniteNumber | None = None
     risk_aversion: FiniteNumber | None = None
+    shortfall_measure: str | None = None
+    max_turnover: FiniteNumber | None = None
     turnover_sharpness: FiniteNumber | None = None
     floor_sharpness: FiniteNumber | None = None
 

@@ -9,11 +9,12 @@ pass stores only the per-month state of each path, not the step's intermediates.
 
 Objective (maximised; training minimises its negative), documented in docs/alm.md:
 
-    J = mean_paths[ (1 - exp(-gamma * S)) / gamma ] - mean_paths[ sum_t lambda * dt * shortfall_t^2 ]
+    J = mean_paths[ (1 - exp(-gamma * S)) / gamma ] - mean_paths[ sum_t lambda * dt * shortfall_t^p ]
 
 with S = (A_T - L_T) / (B_T * L_0) the terminal surplus discounted by the bank account B_T
 and expressed per unit of the initial liability value L_0, gamma the risk aversion, and
-shortfall_t = max(floor - funding_ratio_t, 0) (smooth when training, exact when reporting).
+shortfall_t = max(floor - funding_ratio_t, 0) (smooth when training, exact when reporting), p = 2
+(`shortfall_measure="squared"`, the default) or 1 ("linear": the expected shortfall per month).
 """
 
 from typing import NamedTuple
@@ -23,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_range, smooth
+from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_choice, check_range, smooth
 
 from ._assets import MarketState, gross_returns, initial_prices, scenario_returns, zero_rate
 from ._factors import FactorLayout
@@ -37,11 +38,12 @@ EFFECTS = EffectCatalogue(
         transaction_costs="proportional cost on the turnover of every monthly rebalancing",
         inflation_indexation="a share of the benefits grows with the price index",
         contributions="the sponsor pays a fixed contribution every month",
-        funding_floor="a penalty on the squared shortfall of the funding ratio below a floor",
+        funding_floor="a penalty on the (squared or linear) shortfall of the funding ratio below a floor",
         credit="the credit bucket earns a stochastic spread and loses part of it to defaults",
     ),
 )
 MAX_HORIZON_MONTHS = 600
+SHORTFALL_MEASURES = ("squared", "linear")
 
 
 class ALMConfig(Settings):
@@ -52,7 +54,12 @@ class ALMConfig(Settings):
     - `indexation`: share of the benefits indexed to inflation, in [0, 1].
     - `contribution` [million/month].
     - `funding_floor`: the funding ratio below which the shortfall is penalised.
-    - `floor_penalty` [1/year]: weight of the squared shortfall, per year below the floor.
+    - `floor_penalty` [1/year]: weight of the shortfall, per year below the floor.
+    - `shortfall_measure`: "squared" (the shortfall squared, the default) or "linear" (the
+      shortfall itself: penalises every shortfall in proportion, small ones more than squared).
+    - `max_turnover` [per month]: at most this sum |w_new - w_held| is traded in a month, the
+      policy's target approached along the straight line (`limited_weights`); None: no limit,
+      not computed.
     - `risk_aversion` gamma of the exponential utility of the surplus, > 0.
     - `turnover_sharpness`, `floor_sharpness`: sharpness of the smooth |.| and max(., 0) used
       when training [1/unit of weight, 1/unit of funding ratio].
@@ -68,6 +75,8 @@ class ALMConfig(Settings):
     funding_floor: float = eqx.field(static=True, default=1.0)
     floor_penalty: float = eqx.field(static=True, default=2.0)
     risk_aversion: float = eqx.field(static=True, default=3.0)
+    shortfall_measure: str = eqx.field(static=True, default="squared")
+    max_turnover: float | None = eqx.field(static=True, default=None)
     turnover_sharpness: float = eqx.field(static=True, default=200.0)
     floor_sharpness: float = eqx.field(static=True, default=50.0)
 
@@ -79,6 +88,9 @@ class ALMConfig(Settings):
         check_range("floor_penalty", self.floor_penalty, 0.0)
         check_range("risk_aversion", self.risk_aversion, 0.0, 100.0, low_open=True)
         check_range("turnover_sharpness", self.turnover_sharpness, 0.0, low_open=True)
+        check_choice("shortfall_measure", self.shortfall_measure, SHORTFALL_MEASURES)
+        if self.max_turnover is not None:
+            check_range("max_turnover", self.max_turnover, 0.0, 2.0, low_open=True)
         check_range("floor_sharpness", self.floor_sharpness, 0.0, low_open=True)
 
 
@@ -113,6 +125,17 @@ class ALMProblem(eqx.Module):
                 1 <= self.horizon_months <= MAX_HORIZON_MONTHS):
             raise InputError(f"horizon_months = {self.horizon_months!r}; allowed: an integer in "
                              f"[1, {MAX_HORIZON_MONTHS}].")
+
+
+def limited_weights(held, target, max_turnover: float, sharpness: float | None):
+    """The weights traded to when at most `max_turnover` (sum of |change|) may trade: `held` +
+    (`target` - `held`) x L / (L + relu(turnover - L)), so the whole move where it is within the
+    limit and exactly the limit beyond it (with the exact relu; `sharpness` for the smooth |.|
+    and relu). Both ends on the simplex, so the result is too. Shapes (paths, classes)."""
+    move = target - held
+    turnover = jnp.sum(smooth.abs(move, sharpness), axis=1)
+    excess = smooth.relu(turnover - max_turnover, sharpness)
+    return held + move * (max_turnover / (max_turnover + excess))[:, None]
 
 
 def indexed_share(config: ALMConfig, scene: Scene) -> float | None:
@@ -261,13 +284,17 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
         features = jnp.stack([month / horizon * ones, funding_ratio, short_rate,
                               state.key_rates[:, -1], state.inflation, state.spread], axis=1)
         weights = policy(features)
+        if config.max_turnover is not None:
+            weights = limited_weights(carry.held, weights, config.max_turnover, turnover_sharpness)
         assets = carry.assets
         if scene.has("transaction_costs"):
             turnover = jnp.sum(smooth.abs(weights - carry.held, turnover_sharpness), axis=1)
             assets = assets * (1.0 - config.transaction_cost * turnover)
         penalty = carry.penalty
         if scene.has("funding_floor"):
-            shortfall = smooth.penalty_below(funding_ratio, config.funding_floor, floor_sharpness)
+            shortfall = smooth.relu(config.funding_floor - funding_ratio, floor_sharpness)
+            if config.shortfall_measure == "squared":
+                shortfall = shortfall**2
             penalty = penalty + config.floor_penalty * MONTH * shortfall
         if problem.external_scenarios:
             now, later = shock
