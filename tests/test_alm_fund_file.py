@@ -161,3 +161,25 @@ def test_every_fund_starts_at_the_funding_ratio_its_file_states(tmp_path, withou
     assert alm.initial_funding_ratio(study.problem, {**study.fixed, **study.reported}) == pytest.approx(0.93, rel=1e-12)
     built_in = alm.build_study(40, horizon_months=12, without=without)
     assert alm_funding_ratio(built_in) == pytest.approx(1.1, rel=1e-12)
+
+
+def test_asset_classes_by_duration_and_their_errors(tmp_path):
+    text = SAMPLE.read_text().replace("file: alm_liabilities.csv", "file: liabilities.csv")
+    text = text[:text.index("assets:")] + """assets:
+  classes: [{name: cash, kind: cash}, {name: long_bonds, kind: nominal, duration: 18}, {name: stocks, kind: equity}]
+  weight_bounds: {cash: [0, 0.5], long_bonds: [0, 1], stocks: [0, 1]}
+  initial_funding_ratio: 1.1
+  mix: {cash: 0.1, long_bonds: 0.6, stocks: 0.3}
+"""
+    (tmp_path / "liabilities.csv").write_text("year,cash_flow\n1,12\n")
+    path = tmp_path / "fund.yaml"
+    path.write_text(text)
+    fund = alm.load_fund(path)
+    assert fund.market.asset_names == ("cash", "long_bonds", "stocks") and fund.market.bond_classes[0].maturity == 18
+    assert alm_funding_ratio(alm.build_fund_study(fund)) == pytest.approx(1.1, rel=1e-12)
+    path.write_text(text.replace("duration: 18", "duration: 18, maturity: 5"))
+    with pytest.raises(InputError, match="give maturity or duration, not both"):
+        alm.load_fund(path)
+    path.write_text(text.replace("kind: equity", "kind: gold"))
+    with pytest.raises(InputError, match="kind = 'gold'; allowed: cash, nominal"):
+        alm.load_fund(path)

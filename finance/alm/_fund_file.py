@@ -76,11 +76,19 @@ class LiabilitiesSection(_Section):
 
 class AssetClassEntry(_Section):
     """One asset class: `name`, `kind` (cash, nominal, inflation_linked, credit, equity) and, for
-    the bond kinds, `maturity` [years] (`AssetClass`)."""
+    the bond kinds, `maturity` [years] or, the same for the zero-coupon buckets the model holds,
+    `duration` [years] (`AssetClass`)."""
 
     name: Name
     kind: str
     maturity: FiniteNumber | None = None
+    duration: FiniteNumber | None = None
+
+    @pydantic.model_validator(mode="after")
+    def _one_of_maturity_and_duration(self):
+        if self.maturity is not None and self.duration is not None:
+            raise ValueError("give maturity or duration, not both (a zero-coupon bucket's duration is its maturity)")
+        return self
 
 
 class AssetsSection(_Section):
@@ -175,7 +183,7 @@ def _keys(where: str, field: str, given: dict, allowed: tuple[str, ...]) -> None
 
 def _market(section: MarketSection, assets: AssetsSection, where: str) -> Market:
     classes = None if assets.classes is None else tuple(
-        AssetClass(c.name, c.kind, c.maturity) for c in assets.classes)
+        AssetClass(c.name, c.kind, c.maturity if c.duration is None else c.duration) for c in assets.classes)
     both = {"bond_maturities", "inflation_linked_maturity", "credit_maturity"} & assets.model_fields_set
     if classes is not None and both:
         raise InputError(f"{where}: assets.{sorted(both)[0]} with assets.classes: the classes carry their own "
