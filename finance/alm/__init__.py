@@ -1,12 +1,13 @@
 """Pension-fund asset-liability management (ALM) with a neural rebalancing policy, and the
 sensitivities of its objective to every risk factor from one reverse pass.
 
-Layers: `_market` (curve, drivers, correlation) -> `_liabilities`, `_assets` -> `_factors` (the
-named risk factors) -> `_policy` -> `_model` (effects, monthly simulation, objective) ->
+Layers: `_market` (curve, drivers, correlation) -> `_liabilities`, `_assets` -> `_market_step`
+(the market a month on) -> `_factors` (the named risk factors) -> `_policy` -> `_model`
+(effects, monthly simulation, objective) -> `_board` (the board's figures) ->
 `_units`, `_liability_file`, `_fund_file` (a fund in files), `_scenario_file`, `_scenarios`
 (scenario sets from outside) -> `_sensitivities` (the objective of the reported factors, how the
-baselines batch) -> `_study` (training, baselines, typed results) -> `_bench`, `_cli`. See docs/alm.md. Public names load on
-first use (see `snapo_ode.lazy_exports`).
+baselines batch) -> `_study` (training, baselines, typed results) -> `_bench`, `_cli`. See
+docs/alm.md. Public names load on first use (see `snapo_ode.lazy_exports`).
 """
 
 from snapo_ode import lazy_exports
@@ -25,8 +26,9 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._liability_file": ("Liabilities", "load_liabilities"),
     "._market": ("ASSETS", "Market", "check_correlation", "correlated_shocks", "default_correlation", "driver_names",
                  "interpolation_weights", "key_tenors"),
+    "._market_step": ("next_market", "scenario_state"),
     "._model": ("EFFECTS", "ALMConfig", "ALMProblem", "Outcome", "Trajectory", "indexed_share", "initial_funding_ratio",
-                "initial_values", "next_market", "objective", "scenario_state", "simulate"),
+                "initial_values", "limited_weights", "objective", "simulate"),
     "._policy": ("FEATURES", "AbstractRebalancing", "FixedMix", "NeuralRebalancing", "bounded_weights",
                  "liability_matching", "sixty_forty"),
     "._sensitivities": ("BUMP_RELATIVE_STEP", "chunk_size", "objective_of_reported"),

@@ -11,7 +11,7 @@ from snapo_ode import SAMPLES, InputError, check_divisible
 
 from ._assets import MarketState, index_growth
 from ._market import RATE_DRIVERS, correlated_shocks
-from ._model import next_market
+from ._market_step import next_market
 from ._scenario_file import ScenarioSet, variable_names
 
 
