@@ -54,7 +54,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._checkpoint": ("CheckpointInfo", "load_checkpoint", "save_checkpoint"),
     "._fingerprint": ("digest_of", "package_versions", "run_fingerprint"),
     "._platform.settings": ("Settings",),
-    "._platform.schema": ("DECIMAL", "STRICT_SCHEMA", "FiniteNumber", "read_text", "strict_json", "strict_yaml",
+    "._platform.schema": ("DECIMAL", "STRICT_SCHEMA", "FiniteNumber", "line_of", "read_text", "strict_json", "strict_yaml",
                           "validate"),
     "._platform.validation": ("InputError", "check_choice", "check_count", "check_finite", "check_increasing",
                      "check_range", "check_scalar"),

@@ -183,3 +183,31 @@ def test_asset_classes_by_duration_and_their_errors(tmp_path):
     path.write_text(text.replace("kind: equity", "kind: gold"))
     with pytest.raises(InputError, match="kind = 'gold'; allowed: cash, nominal"):
         alm.load_fund(path)
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"cash_flow_unit": "  cash_flow_unit: million USD / month"}, "line 27: liabilities.cash_flow_unit = "
+                                                                 "'million USD / month' names USD"),
+    ({"cash_flow_unit": "  cash_flow_unit: million / (month"}, "is not a unit (TokenError"),
+    ({"cash_flow_unit": "  cash_flow_unit: percent / month"}, "'percent' is no amount of money"),
+    ({"risk_aversion": "  risk_aversion: -1"}, "line 48: objective.risk_aversion = -1"),
+    ({"inflation_vol": "  inflation_vol: -0.01"}, "line 15: market.inflation_vol = -0.01"),
+    ({"volatility": "      volatility: 3"}, "line 24: market.equity_vols"),
+    ({"mix": "  mix: {cash: 0.05, bond_short: 0.15, bond_long: 0.3, inflation_linked: 0.1, credit: 0.1, equity: 0.2}"},
+     "line 41: assets.mix = "),
+])
+def test_errors_found_after_the_schema_name_the_line(tmp_path, change, message):
+    path = _fund(tmp_path, "month,cash_flow\n1,2\n", **change)
+    with pytest.raises(InputError) as raised:
+        alm.load_fund(path)
+    assert message in str(raised.value), str(raised.value)
+
+
+def test_cohort_names_and_repeated_factor_names_are_refused(tmp_path):
+    with pytest.raises(InputError, match=r"line 2: cohort = ''; allowed: a name of letters"):
+        alm.load_fund(_fund(tmp_path, "cohort,month,cash_flow\n ,1,2\n"))
+    path = _fund(tmp_path, "month,cash_flow\n1,2\n", name="name: x\nmarket:", market="",
+                 key_tenors="  key_tenors: [0.25, 0.2501, 0.4596295312869421, 0.8450372241242164, 1.5536162529769293, "
+                            "2.856351640622245, 5.2514542630795615, 9.654893846056297, 17.75069733235215, 60.0]")
+    with pytest.raises(InputError, match="factor name 'key_rate_0.25y' is given to two factors"):
+        alm.build_fund_study(alm.load_fund(path))

@@ -145,3 +145,28 @@ def test_snapo_alm_writes_and_reads_a_scenario_set(tmp_path, capsys):
     assert payload["initial_funding_ratio"] == pytest.approx(1.1, rel=1e-12)
     assert main([*run, "--scenarios", str(written), "--paths", "4"], plugins=[register_alm]) == 2
     assert "give one of the two" in capsys.readouterr().err
+
+
+def test_a_random_price_index_without_inflation_starts_alike_and_grows_ahead(tmp_path, fund):
+    rows = [(s, t, v, x * (1.01 + 0.01 * i) ** t if v == "cpi" else x)
+            for s, t, v, x in _annual_rows(fund, scenarios=("a", "b", "c"))
+            for i in [("a", "b", "c").index(s)]]
+    loaded = load_scenarios(_long_csv(tmp_path / "random_cpi.csv", rows), fund.market, 24, spread=0.01)
+    names = variable_names(fund.market)
+    inflation = loaded.values[:, :, names.index("inflation")]
+    cpi_growth = np.log([1.02 * 1.01, 1.02 * 1.02, 1.02 * 1.03])  # each scenario's yearly growth
+    np.testing.assert_allclose(inflation[0], cpi_growth.mean(), rtol=1e-12)  # time 0: the set's mean
+    np.testing.assert_allclose(inflation[12], cpi_growth, rtol=1e-12)  # a year on: the year ahead's
+    alm.build_fund_study(fund, horizon_months=24, scenario_set=loaded)  # starts alike: accepted
+
+
+def test_a_tenor_given_twice_and_blank_lines(tmp_path, fund):
+    rows = _annual_rows(fund) + [(s, t, "zero_rate_1.0", 0.02) for s in "ab" for t in range(3)]
+    with pytest.raises(InputError, match="zero_rate_1 and zero_rate_1.0 are the same tenor"):
+        load_scenarios(_long_csv(tmp_path / "twice.csv", rows), fund.market, 12, spread=0.01)
+    path = _long_csv(tmp_path / "blank.csv", _annual_rows(fund))
+    text = path.read_text().splitlines(keepends=True)
+    text[2] = "\n" + text[2].replace("zero_rate_10,0.03", "zero_rate_10,x")  # a blank line 3, the row on 4
+    path.write_text("".join(text))
+    with pytest.raises(InputError, match=r"line 4: value = 'x'"):
+        load_scenarios(path, fund.market, 12, spread=0.01)

@@ -4,7 +4,7 @@ sensitivities of its objective to every risk factor from one reverse pass.
 Layers: `_market` (curve, drivers, correlation) -> `_liabilities`, `_assets` -> `_market_step`
 (the market a month on) -> `_factors` (the named risk factors) -> `_policy` -> `_model`
 (effects, monthly simulation, objective) -> `_board` (the board's figures) ->
-`_units`, `_liability_file`, `_fund_file` (a fund in files), `_scenario_file`, `_scenarios`
+`_units`, `_liability_file`, `_fund_schema`, `_fund_file` (a fund in files), `_memory`, `_scenario_file`, `_scenarios`
 (scenario sets from outside) -> `_sensitivities` (the objective of the reported factors, how the
 baselines batch) -> `_study` (training, baselines, typed results) -> `_bench`, `_cli`. See
 docs/alm.md. Public names load on first use (see `snapo_ode.lazy_exports`).
@@ -18,7 +18,8 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._board": ("BoardSettings", "balance_sheet_figures", "board_figures", "path_figures"),
     "._factors": ("DEFAULT_MIX", "GROUPS", "FactorLayout", "check_factors", "default_factors", "factor_names",
                   "holdings_at_funding_ratio", "layout_for", "named_sensitivities", "split_reported"),
-    "._fund_file": ("Fund", "FundFile", "fund_holdings", "load_fund", "sample_fund_path"),
+    "._fund_file": ("Fund", "fund_holdings", "load_fund", "sample_fund_path"),
+    "._fund_schema": ("FundFile",),
     "._scenario_file": ("ScenarioSet", "load_scenarios", "variable_names", "write_scenarios"),
     "._scenarios": ("generated_scenarios", "scenario_start"),
     "._liabilities": ("LiabilitySchedule", "bucket_schedule", "default_liability_cash_flows", "key_rate_profile",

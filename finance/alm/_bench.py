@@ -15,7 +15,8 @@ from snapo_ode import format_table as markdown_table
 from ._factors import layout_for
 from ._policy import NeuralRebalancing
 from ._scenarios import on_devices
-from ._study import check_size, measure_sensitivities, scenarios, study_for
+from ._memory import check_size
+from ._study import measure_sensitivities, scenarios, study_for
 
 DEFAULT_COUNTS = (10, 50, 100, 500, 1000, 2000)
 COLUMNS = (

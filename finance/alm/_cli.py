@@ -88,6 +88,9 @@ def _write_generated(args, fund) -> None:
 
     if args.scenarios is not None:
         raise InputError("--write-scenarios and --scenarios: the generator writes its own scenarios; give one of the two.")
+    if args.write_scenarios.suffix.lower() not in (".csv", ".parquet", ".npz"):
+        raise InputError(f"--write-scenarios {args.write_scenarios}: unknown format {args.write_scenarios.suffix!r}; "
+                         "allowed: .csv, .parquet or .npz.")
     study = study_for(_risk_factors(args), fund, args.horizon_months)
     generated = generated_scenarios(study, _paths(args, 1000), jax.random.fold_in(jax.random.key(args.seed), 2))
     print(f"written: {write_scenarios(args.write_scenarios, generated, study.market)}")

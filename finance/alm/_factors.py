@@ -92,8 +92,8 @@ DEFAULT_MIX = dict(cash=0.05, bond_short=0.15, bond_long=0.30, inflation_linked=
 def holdings_at_funding_ratio(factors: dict, market: Market, funding_ratio: float, mix: dict,
                               schedule: LiabilitySchedule | None = None, indexation: float | None = None,
                               credit: bool = True) -> np.ndarray:
-    """Units held of each asset (cash, the four bond buckets, then each equity index), shape
-    (5 + n_equities,), so that the fund starts at `funding_ratio` with the asset classes' values
+    """Units held of each asset (each non-equity class in order, then each equity index), shape
+    (classes - 1 + n_equities,), so that the fund starts at `funding_ratio` with the asset classes' values
     in the proportions `mix` (keys `market.asset_names`, summing to 1; the equity share split equally over the
     indices), its liabilities valued as the simulation values them at the start: on the initial
     curve, with the `indexation` share indexed (None: the indexation effect is off), the credit

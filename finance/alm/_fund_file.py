@@ -10,16 +10,14 @@ ranges by the model's own checks (`Market`, `check_factors`, `ALMConfig`), the s
 Python callers.
 """
 
-import datetime
 import os
 import pathlib
 from importlib.resources import files
 from typing import NamedTuple
 
 import numpy as np
-import pydantic
 
-from snapo_ode import STRICT_SCHEMA, FiniteNumber, InputError, read_text, strict_yaml, validate
+from snapo_ode import InputError, check_range, line_of, read_text, strict_yaml, validate
 
 from ._assets import initial_prices
 from ._board import BoardSettings
@@ -27,130 +25,9 @@ from ._factors import DEFAULT_MIX, holdings_at_funding_ratio
 from ._liabilities import LiabilitySchedule
 from ._liability_file import load_liabilities
 from ._market import ASSETS, AssetClass, Market, check_asset_classes
-from ._model import EFFECTS, MAX_HORIZON_MONTHS, ALMConfig, indexed_share
+from ._model import EFFECTS, ALMConfig, indexed_share
+from ._fund_schema import AssetsSection, FundFile, MarketSection
 from ._units import in_millions
-
-Numbers = list[FiniteNumber]
-Name = pydantic.constr(pattern=r"^[A-Za-z][A-Za-z0-9_]{0,39}$")  # a factor name's part: letters, digits, _
-Bounds = pydantic.conlist(FiniteNumber, min_length=2, max_length=2)
-
-
-class _Section(pydantic.BaseModel):
-    model_config = STRICT_SCHEMA
-
-
-class Equity(_Section):
-    """One equity index: its `name`, `level` (index points at the start) and `volatility` [1/sqrt(year)]."""
-
-    name: Name
-    level: FiniteNumber = 1.0
-    volatility: FiniteNumber
-
-
-class MarketSection(_Section):
-    """The scenario generator's inputs (`Market` and the market factor groups)."""
-
-    key_tenors: Numbers
-    key_rates: Numbers
-    rate_vols: Numbers
-    rate_mean_reversion: FiniteNumber = 0.1
-    inflation: FiniteNumber
-    inflation_vol: FiniteNumber
-    inflation_mean_reversion: FiniteNumber = 0.5
-    spread: FiniteNumber
-    spread_vol: FiniteNumber
-    spread_mean_reversion: FiniteNumber = 0.8
-    equity_premium: FiniteNumber = 0.04
-    equities: pydantic.conlist(Equity, min_length=1, max_length=50)
-    correlation: list[Numbers] | None = None
-
-
-class LiabilitiesSection(_Section):
-    """The liability CSV (`file`, relative to the fund file), the unit of its cash flows and,
-    for a `date` column, the valuation date."""
-
-    file: str
-    cash_flow_unit: str = "million / month"
-    valuation_date: datetime.date | None = None
-
-
-class AssetClassEntry(_Section):
-    """One asset class: `name`, `kind` (cash, nominal, inflation_linked, credit, equity) and, for
-    the bond kinds, `maturity` [years] or, the same for the zero-coupon buckets the model holds,
-    `duration` [years] (`AssetClass`)."""
-
-    name: Name
-    kind: str
-    maturity: FiniteNumber | None = None
-    duration: FiniteNumber | None = None
-
-    @pydantic.model_validator(mode="after")
-    def _one_of_maturity_and_duration(self):
-        if self.maturity is not None and self.duration is not None:
-            raise ValueError("give maturity or duration, not both (a zero-coupon bucket's duration is its maturity)")
-        return self
-
-
-class AssetsSection(_Section):
-    """The asset classes' maturities, weight bounds, and the starting holdings: either
-    `classes`, the asset classes the policy weights (default the built-in six, `ASSETS`, at
-    `bond_maturities`, `inflation_linked_maturity` and `credit_maturity`), and either
-    `initial_funding_ratio` with the `mix` of the asset classes' values (keys the class names, summing to
-    1), or `holdings`, each asset's market value (cash, the four bond buckets and each equity
-    index by name) in `holdings_unit`. The funding ratio values the liabilities as the
-    simulation does at the start, with the study's effects (the indexed share of the benefits,
-    the credit bucket's spread) on its initial market (the file's, or a scenario set's start)."""
-
-    bond_maturities: Bounds = (5.0, 30.0)
-    inflation_linked_maturity: FiniteNumber = 20.0
-    credit_maturity: FiniteNumber = 7.0
-    credit_loss_fraction: FiniteNumber = 0.4
-    classes: list[AssetClassEntry] | None = None
-    weight_bounds: dict[str, Bounds] | None = None
-    initial_funding_ratio: FiniteNumber | None = None
-    mix: dict[str, FiniteNumber] | None = None
-    holdings: dict[str, FiniteNumber] | None = None
-    holdings_unit: str = "million"
-
-
-class ObjectiveSection(_Section):
-    """`ALMConfig`'s fields (the objective's parameters and the effects'); omitted ones keep
-    their defaults."""
-
-    transaction_cost: FiniteNumber | None = None
-    indexation: FiniteNumber | None = None
-    contribution: FiniteNumber | None = None
-    funding_floor: FiniteNumber | None = None
-    floor_penalty: FiniteNumber | None = None
-    risk_aversion: FiniteNumber | None = None
-    shortfall_measure: str | None = None
-    max_turnover: FiniteNumber | None = None
-    turnover_sharpness: FiniteNumber | None = None
-    floor_sharpness: FiniteNumber | None = None
-
-
-class BoardSection(_Section):
-    """Where the board's figures are taken (`BoardSettings`): `required_funding_ratio`, the
-    `months` of the date figures, the `confidence` of surplus at risk."""
-
-    required_funding_ratio: FiniteNumber = 1.25
-    months: list[pydantic.StrictInt] | None = None
-    confidence: FiniteNumber = 0.95
-
-
-class FundFile(_Section):
-    """A fund file (docs/alm.md, "A fund in files")."""
-
-    name: str
-    currency: str = "EUR"
-    horizon_months: pydantic.conint(strict=True, ge=1, le=MAX_HORIZON_MONTHS) = 120
-    effects: list[str] | None = None
-    market: MarketSection
-    liabilities: LiabilitiesSection
-    assets: AssetsSection
-    objective: ObjectiveSection = ObjectiveSection()
-    board: BoardSection = BoardSection()
-
 
 class Fund(NamedTuple):
     """A fund ready to study (`build_fund_study`): its `name`, `market`, every factor group but
@@ -170,31 +47,43 @@ class Fund(NamedTuple):
     assets: AssetsSection
     board: BoardSettings = BoardSettings()
     files: tuple[pathlib.Path, ...] = ()
+    currency: str = "EUR"
 
 
-def _keys(where: str, field: str, given: dict, allowed: tuple[str, ...]) -> None:
+class _Locator:
+    """Where a field of the fund file is: `at("assets.mix")` gives "fund file F, line N" (the
+    first line that holds the field's last key)."""
+
+    def __init__(self, where: str, text: str):
+        self.where, self.text = where, text
+
+    def at(self, field: str) -> str:
+        return f"{self.where}{line_of(self.text, field.split('.'))}"
+
+
+def _keys(file: _Locator, field: str, given: dict, allowed: tuple[str, ...]) -> None:
     unknown = [key for key in given if key not in allowed]
     missing = [key for key in allowed if key not in given]
     if unknown or missing:
-        raise InputError(f"{where}: {field} has {'unknown ' + repr(unknown) if unknown else ''}"
+        raise InputError(f"{file.at(field)}: {field} has {'unknown ' + repr(unknown) if unknown else ''}"
                          f"{' and ' if unknown and missing else ''}{'no ' + repr(missing) if missing else ''}; "
                          f"its keys are {', '.join(allowed)}.")
 
 
-def _market(section: MarketSection, assets: AssetsSection, where: str) -> Market:
+def _market(section: MarketSection, assets: AssetsSection, file: _Locator) -> Market:
     classes = None if assets.classes is None else tuple(
         AssetClass(c.name, c.kind, c.maturity if c.duration is None else c.duration) for c in assets.classes)
     both = {"bond_maturities", "inflation_linked_maturity", "credit_maturity"} & assets.model_fields_set
     if classes is not None and both:
-        raise InputError(f"{where}: assets.{sorted(both)[0]} with assets.classes: the classes carry their own "
+        raise InputError(f"{file.at('classes')}: assets.{sorted(both)[0]} with assets.classes: the classes carry their own "
                          "maturities; give one of the two.")
     try:
         names = ASSETS if classes is None else tuple(c.name for c in check_asset_classes(classes))
     except InputError as error:
-        raise InputError(f"{where}: assets.classes: {error}") from None
+        raise InputError(f"{file.at('classes')}: assets.classes: {error}") from None
     bounds = {}
     if assets.weight_bounds is not None:
-        _keys(where, "assets.weight_bounds", assets.weight_bounds, names)
+        _keys(file, "assets.weight_bounds", assets.weight_bounds, names)
         bounds = dict(weight_low=tuple(assets.weight_bounds[a][0] for a in names),
                       weight_high=tuple(assets.weight_bounds[a][1] for a in names))
     try:
@@ -208,24 +97,30 @@ def _market(section: MarketSection, assets: AssetsSection, where: str) -> Market
                       credit_maturity=assets.credit_maturity, credit_loss_fraction=assets.credit_loss_fraction,
                       equity_names=tuple(e.name for e in section.equities), asset_classes=classes, **bounds)
     except InputError as error:
-        raise InputError(f"{where}: {error}") from None
+        field = str(error).split(" ", 1)[0].split("[", 1)[0]
+        raise InputError(f"{file.at(field)}: {error}") from None
 
 
-def _check_assets(assets: AssetsSection, market: Market, where: str) -> None:
+def _check_assets(assets: AssetsSection, market: Market, file: _Locator, currency: str) -> None:
     if (assets.holdings is None) == (assets.initial_funding_ratio is None):
-        raise InputError(f"{where}: assets needs exactly one of initial_funding_ratio (with mix) and holdings.")
+        raise InputError(f"{file.at('assets')}: assets needs exactly one of initial_funding_ratio (with mix) and "
+                         "holdings.")
     if assets.holdings is not None:
-        _keys(where, "assets.holdings", assets.holdings, (*market.asset_names[:-1], *market.equity_names))
-        in_millions(assets.holdings_unit, f"{where}: assets.holdings_unit")
+        _keys(file, "assets.holdings", assets.holdings, (*market.asset_names[:-1], *market.equity_names))
+        if assets.mix is not None:
+            raise InputError(f"{file.at('assets.mix')}: assets.mix with assets.holdings: holdings fix the mix; give "
+                             "one of the two.")
+        in_millions(assets.holdings_unit, f"{file.at('holdings_unit')}: assets.holdings_unit", currency)
         return
     mix = DEFAULT_MIX if assets.mix is None else assets.mix
     if assets.mix is None and market.asset_names != ASSETS:
-        raise InputError(f"{where}: assets.mix is needed for the asset classes {list(market.asset_names)}.")
-    _keys(where, "assets.mix", mix, market.asset_names)
+        raise InputError(f"{file.at('assets')}: assets.mix is needed for the asset classes {list(market.asset_names)}.")
+    _keys(file, "assets.mix", mix, market.asset_names)
     if min(mix.values()) < 0 or abs(sum(mix.values()) - 1.0) > 1e-9:
-        raise InputError(f"{where}: assets.mix = {mix}; allowed: weights >= 0 summing to 1.")
+        raise InputError(f"{file.at('assets.mix')}: assets.mix = {mix}; allowed: weights >= 0 summing to 1.")
     if not 0.0 < assets.initial_funding_ratio <= 10.0:
-        raise InputError(f"{where}: assets.initial_funding_ratio = {assets.initial_funding_ratio}; allowed: (0, 10].")
+        raise InputError(f"{file.at('initial_funding_ratio')}: assets.initial_funding_ratio = "
+                         f"{assets.initial_funding_ratio}; allowed: (0, 10].")
 
 
 def fund_holdings(fund: Fund, factors: dict, scene) -> np.ndarray:
@@ -235,7 +130,8 @@ def fund_holdings(fund: Fund, factors: dict, scene) -> np.ndarray:
     assets, market = fund.assets, fund.market
     if assets.holdings is not None:
         names = (*market.asset_names[:-1], *market.equity_names)
-        values = np.array([assets.holdings[name] for name in names]) * in_millions(assets.holdings_unit, "holdings_unit")
+        values = np.array([assets.holdings[name] for name in names]) * in_millions(
+            assets.holdings_unit, "holdings_unit", fund.currency)
         prices = initial_prices(factors, market, credit=scene.has("credit"))
         return values / np.concatenate([np.asarray(prices)[:len(market.asset_names) - 1],
                                         np.asarray(factors["equity_levels"])])
@@ -253,7 +149,8 @@ def load_fund(path: str | os.PathLike) -> Fund:
     where = f"fund file {path}"
     text = read_text(path, "fund")
     spec = validate(FundFile, strict_yaml(text, where), where, text)
-    market = _market(spec.market, spec.assets, where)
+    file = _Locator(where, text)
+    market = _market(spec.market, spec.assets, file)
     equities = spec.market.equities
     factors = dict(key_rates=np.asarray(spec.market.key_rates, float),
                    rate_vols=np.asarray(spec.market.rate_vols, float),
@@ -263,26 +160,56 @@ def load_fund(path: str | os.PathLike) -> Fund:
                    spread=np.array(spec.market.spread), spread_vol=np.array(spec.market.spread_vol))
     for group in ("key_rates", "rate_vols"):
         if factors[group].shape != (market.n_tenors,):
-            raise InputError(f"{where}: market.{group} has {factors[group].size} entries; expected one per key tenor "
-                             f"({market.n_tenors}).")
+            raise InputError(f"{file.at(group)}: market.{group} has {factors[group].size} entries; expected one per key "
+                             f"tenor ({market.n_tenors}).")
+    _check_market_factors(factors, file)
     liability_path = path.parent / spec.liabilities.file
-    liabilities = load_liabilities(liability_path, spec.liabilities.cash_flow_unit,
-                                   valuation_date=spec.liabilities.valuation_date)
+    try:
+        liabilities = load_liabilities(liability_path, spec.liabilities.cash_flow_unit,
+                                       valuation_date=spec.liabilities.valuation_date, currency=spec.currency)
+    except InputError as error:
+        if "liabilities.cash_flow_unit" not in str(error):
+            raise
+        raise InputError(f"{file.at('cash_flow_unit')}: {error}") from None
     factors["liability_cash_flows"] = liabilities.cash_flows
     effects = None if spec.effects is None else tuple(spec.effects)
     try:
         config = ALMConfig(**{k: v for k, v in spec.objective.model_dump().items() if v is not None})
+    except InputError as error:
+        field = str(error).split(" ", 1)[0]
+        raise InputError(f"{file.at('objective.' + field)}: objective.{error}") from None
+    try:
         EFFECTS.scene(effects)
-        board = BoardSettings(spec.board.required_funding_ratio,
-                              None if spec.board.months is None else tuple(spec.board.months), spec.board.confidence)
-        late = [m for m in spec.board.months or () if m > spec.horizon_months]
+    except InputError as error:
+        raise InputError(f"{file.at('effects')}: effects: {error}") from None
+    late = [m for m in spec.board.months or () if m > spec.horizon_months]
+    try:
         if late:
             raise InputError(f"board.months {late} lie beyond horizon_months = {spec.horizon_months}.")
+        board = BoardSettings(spec.board.required_funding_ratio,
+                              None if spec.board.months is None else tuple(spec.board.months), spec.board.confidence)
     except InputError as error:
-        raise InputError(f"{where}: {error}") from None
-    _check_assets(spec.assets, market, where)
+        raise InputError(f"{file.at('board')}: {error}") from None
+    _check_assets(spec.assets, market, file, spec.currency)
     return Fund(spec.name, market, factors, liabilities.schedule, config, spec.horizon_months, effects, spec.assets,
-                board, (path, liability_path))
+                board, (path, liability_path), spec.currency)
+
+
+_FILE_KEYS = dict(equity_vols="volatility", equity_levels="level")  # a factor group's key in the file
+
+
+def _check_market_factors(factors: dict, file: _Locator) -> None:
+    """The market groups' ranges (`check_factors`'s), named as the file names them, with the line."""
+    checks = dict(key_rates=(-0.1, 0.5), inflation=(-0.1, 0.5), spread=(0.0, 0.5), rate_vols=(0.0, 2.0),
+                  equity_vols=(0.0, 2.0), inflation_vol=(0.0, 2.0), spread_vol=(0.0, 2.0))
+    for group, (low, high) in checks.items():
+        try:
+            check_range(group, factors[group], low, high)
+        except InputError as error:
+            raise InputError(f"{file.at(_FILE_KEYS.get(group, group))}: market.{error}") from None
+    if np.any(factors["equity_levels"] <= 0):
+        raise InputError(f"{file.at('level')}: market.equities level = {factors['equity_levels'].min():g}; "
+                         "allowed: > 0.")
 
 
 def sample_fund_path() -> pathlib.Path:

@@ -17,6 +17,7 @@ import datetime
 import io
 import math
 import os
+import re
 import warnings
 from typing import NamedTuple
 
@@ -56,7 +57,7 @@ def _months_of(period: str, row: dict, where: str, valuation_date: datetime.date
     numbers = {}
     for column in PERIODS[[p[0] for p in PERIODS].index(period)]:
         text = row[column].strip()
-        if not text.isdigit() or int(text) < 1:
+        if not (text.isascii() and text.isdigit()) or int(text) < 1:
             raise InputError(f"{where}: {column} = {row[column]!r}; allowed: a whole number >= 1.")
         numbers[column] = int(text)
     if period == "month":
@@ -70,14 +71,15 @@ def _months_of(period: str, row: dict, where: str, valuation_date: datetime.date
 
 
 def load_liabilities(path: str | os.PathLike, cash_flow_unit: str = "million / month", *,
-                     valuation_date: datetime.date | None = None) -> Liabilities:
+                     valuation_date: datetime.date | None = None, currency: str = "EUR") -> Liabilities:
     """Read a liability CSV (see the module docstring); `cash_flow_unit` is the unit of its
-    `cash_flow` column (a money amount per time, "million / month", "EUR / year", ...).
+    `cash_flow` column (a money amount per time, "million / month", "EUR / year", ...; in the
+    fund's `currency`).
 
     **Raises:** `InputError` naming the file, the line, the column and the value for a wrong
     header, a value that is not a number, a negative cash flow, overlapping rows of one cohort, a
     run-off past 150 years, or no positive cash flow."""
-    scale = per_month_in_millions(cash_flow_unit, f"liability file {path}: cash_flow_unit")
+    scale = per_month_in_millions(cash_flow_unit, "liabilities.cash_flow_unit", currency)
     # Every cell as text, checked below; blank lines kept, so a row's line is its index + 2; a row
     # longer than the header is refused (pandas would drop its extra cells with a warning).
     try:
@@ -107,10 +109,14 @@ def load_liabilities(path: str | os.PathLike, cash_flow_unit: str = "million / m
         if end > MAX_RUN_OFF_MONTHS:
             raise InputError(f"{where}: the row pays in month {end}; allowed: up to {MAX_RUN_OFF_MONTHS} "
                              "(150 years).")
+        cohort = row.get("cohort", "").strip()
+        if "cohort" in header and not re.fullmatch(r"[A-Za-z0-9_]{1,40}", cohort):
+            raise InputError(f"{where}: cohort = {row['cohort']!r}; allowed: a name of letters, digits and _ (it "
+                             "becomes part of the factor names).")
         flows.append(float(text) * scale)
         first.append(start)
         last.append(end)
-        cohorts.append(row.get("cohort", "").strip())
+        cohorts.append(cohort)
         lines.append(index + 2)
     if not flows or max(flows) <= 0:
         raise InputError(f"liability file {path}: no positive cash_flow; the funding ratio needs liabilities.")

@@ -7,7 +7,8 @@ A file holds, per scenario and time, these variables (names case-sensitive):
 - `equity_<name>`: the total-return index of the fund's equity index `<name>` (any level);
 - `cpi`: the price index (any level);
 - `inflation` (optional): the expected inflation rate [1/year] that indexed benefits grow at;
-  without it, the price index's annualised growth over each step (the first step's at time 0);
+  without it, the price index's annualised growth over the step ahead (the last step's at the
+  end; at time 0 the set's mean over its first step, so that every scenario starts alike);
 - `spread` (optional): the credit spread [1/year]; without it, the fund's own, constant.
 Times are in years from the valuation date, from 0, at monthly (1/12) or annual (1) steps,
 reaching the study's horizon; annual steps are filled in monthly, linearly for rates and
@@ -72,21 +73,24 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
                 if missing:
                     raise InputError(f"{where}: no array {missing[0]!r}; an NPZ scenario file holds 'values' "
                                      "(scenarios x times x variables), 'times' and 'variables'.")
-                values, times, names = data["values"], data["times"], [str(v) for v in data["variables"]]
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
-            raise InputError(f"{where}: not a readable NPZ file ({type(error).__name__}: {error}).") from None
-        if values.ndim != 3 or values.shape[1:] != (times.size, len(names)):
+                values, times = np.asarray(data["values"], float), np.asarray(data["times"], float)
+                names = [str(v) for v in np.atleast_1d(data["variables"])]
+        except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile) as error:
+            raise InputError(f"{where}: not a readable NPZ scenario file ({type(error).__name__}: {error}).") from None
+        if values.ndim != 3 or times.ndim != 1 or values.shape[1:] != (times.size, len(names)):
             raise InputError(f"{where}: values has shape {values.shape}; expected (scenarios, {times.size} times, "
                              f"{len(names)} variables).")
-        return np.asarray(values, float), np.asarray(times, float), names
+        return values, times, names
     if suffix not in (".csv", ".parquet"):
         raise InputError(f"{where}: unknown format {suffix!r}; allowed: .csv, .parquet (long tables) or .npz.")
     try:
         if suffix == ".csv":
             import io
 
-            table = pd.read_csv(io.StringIO(read_text(path, "scenario", MAX_SCENARIO_BYTES)),
-                                skipinitialspace=True, dtype={"variable": str})
+            # Blank lines kept (so a row's line is its index + 2) and dropped below; ids as text ("01" != "1").
+            table = pd.read_csv(io.StringIO(read_text(path, "scenario", MAX_SCENARIO_BYTES)), skipinitialspace=True,
+                                dtype={"scenario": str, "variable": str}, skip_blank_lines=False)
+            table = table[~table.isna().all(axis=1)].copy()
         else:
             table = pd.read_parquet(path)
     except InputError:
@@ -98,7 +102,10 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
     return _pivoted(table, where, line_offset=2 if suffix == ".csv" else None)
 
 
-def _row(where, index, line_offset) -> str:
+def _row(where, table: pd.DataFrame, position: int, line_offset) -> str:
+    """Where the table's row at `position` is: its line in a CSV (its index counts the blank lines
+    dropped), its row number otherwise."""
+    index = int(table.index[position])
     return f"{where}, line {index + line_offset}" if line_offset is not None else f"{where}, row {index + 1}"
 
 
@@ -106,12 +113,12 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
     for column in ("scenario", "variable"):
         empty = np.flatnonzero(table[column].isna().to_numpy() | (table[column].astype(str).str.strip() == ""))
         if empty.size:
-            raise InputError(f"{_row(where, empty[0], line_offset)}: {column} is empty; every row names its {column}.")
+            raise InputError(f"{_row(where, table, empty[0], line_offset)}: {column} is empty; every row names its {column}.")
     for column in ("time", "value"):
         numbers = pd.to_numeric(table[column], errors="coerce")
         bad = np.flatnonzero(~np.isfinite(numbers.to_numpy(float)))
         if bad.size:
-            raise InputError(f"{_row(where, bad[0], line_offset)}: {column} = {table[column].iloc[bad[0]]!r}; "
+            raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {table[column].iloc[bad[0]]!r}; "
                              "allowed: a finite number.")
         table[column] = numbers
     scenario_index, scenarios = pd.factorize(table["scenario"].astype(str))  # in the file's order
@@ -121,7 +128,7 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
     counts = np.bincount(cells, minlength=scenarios.size * times.size * names.size)
     if np.any(counts > 1):
         first = int(np.flatnonzero(counts[cells] > 1)[1])
-        raise InputError(f"{_row(where, first, line_offset)}: scenario {table['scenario'].iloc[first]!r}, time "
+        raise InputError(f"{_row(where, table, first, line_offset)}: scenario {table['scenario'].iloc[first]!r}, time "
                          f"{table['time'].iloc[first]:g}, {table['variable'].iloc[first]} is given twice.")
     if np.any(counts == 0):
         cell = int(np.flatnonzero(counts == 0)[0])
@@ -183,6 +190,9 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
         if np.any(values[..., column[name]] <= 0):
             raise InputError(f"{where}: {name} = {values[..., column[name]].min():g}; allowed: an index > 0.")
     order = sorted(tenors, key=tenors.get)
+    for first, second in zip(order, order[1:]):
+        if tenors[first] == tenors[second]:
+            raise InputError(f"{where}: {first} and {second} are the same tenor ({tenors[first]:g} years); give it once.")
     rates = values[..., [column[name] for name in order]]
     if np.any(np.abs(rates) >= 0.5):
         raise InputError(f"{where}: a zero rate of {rates.flat[np.argmax(np.abs(rates))]:g}; allowed: (-0.5, 0.5).")
@@ -190,9 +200,11 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
     cpi = values[..., column["cpi"]]
     if "inflation" in column:
         inflation = values[..., column["inflation"]]
-    else:
+    else:  # the price index's growth over the step ahead (the last step's at the end), as the generator
+        # accrues it; at time 0 the set's mean first step, so that every scenario starts alike
         growth = np.diff(np.log(cpi), axis=1) / np.diff(times)
-        inflation = np.concatenate([growth[:, :1], growth], axis=1)
+        inflation = np.concatenate([growth, growth[:, -1:]], axis=1)
+        inflation[:, 0] = growth[:, 0].mean()
     credit = values[..., column["spread"]] if "spread" in column else np.full(cpi.shape, spread)
     stacked = np.concatenate([keyed, values[..., [column[name] for name in equities]],
                               np.stack([cpi, inflation, credit], axis=-1)], axis=-1)

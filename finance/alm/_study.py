@@ -14,7 +14,7 @@ import numpy as np
 
 import snapo_ode
 from snapo_ode import (
-    InputError, TrainResult, check_count, check_divisible, check_memory, compare_with_bumps, generate_sharded, mesh_of,
+    InputError, TrainResult, check_count, check_divisible, compare_with_bumps, generate_sharded, mesh_of,
     per_sample, require_float64, time_function, value_and_sensitivities)
 
 from ._results import ALMStudy, Evaluation, SensitivityMeasurement, funding_ratio_statistics
@@ -26,14 +26,16 @@ from ._factors import (
     FactorLayout,
     check_factors,
     default_factors,
+    factor_names,
     layout_for,
     named_sensitivities,
     split_reported,
 )
-from ._liabilities import MINIMUM_RUN_OFF_MONTHS, key_rate_profile
+from ._liabilities import key_rate_profile
 from ._market import Market, correlated_shocks, key_tenors
 from ._board import BoardSettings, board_figures
 from ._fund_file import Fund, fund_holdings
+from ._memory import check_size
 from ._scenario_file import ScenarioSet
 from ._scenarios import batch_drawer, on_devices, scenario_start, split_for_training
 from ._model import EFFECTS, ALMConfig, ALMProblem, indexed_share, initial_funding_ratio, simulate
@@ -55,30 +57,6 @@ class Study(NamedTuple):
     @property
     def market(self) -> Market:
         return self.problem.market
-
-
-RUNTIME_BYTES = 0.5 * 1024**3  # JAX, XLA and the interpreter before the model's arrays
-
-
-def memory_estimate(layout: FactorLayout, horizon_months: int, n_paths: int = 0) -> float:
-    """Peak bytes of building the fund and taking one reverse pass over `n_paths` paths: the
-    liability grid (71 ages x R months of run-off, three arrays while the cash flows are built;
-    the outstanding flows at every month of the horizon, with their cotangent; the tenor mapping)
-    and the Monte Carlo (shocks, and each month's per-path state kept for the reverse pass).
-    Calibrated against a measured peak (docs/alm.md, Measurements behind the design)."""
-    run_off = max(layout.n_liability, MINIMUM_RUN_OFF_MONTHS)
-    tenors, drivers = layout.n_tenors, 3 + layout.n_equities + 2
-    grid = run_off * (3 * 71 + 2 * (horizon_months + 1) + tenors)
-    paths = horizon_months * n_paths * (drivers + 2 * (tenors + 12))
-    return RUNTIME_BYTES + 8.0 * (grid + paths)
-
-
-def check_size(layout: FactorLayout, horizon_months: int, n_paths: int = 0) -> None:
-    """Refuse, before any allocation, a study that would not fit in memory (`memory_estimate`)."""
-    check_memory(f"the ALM study with N = {layout.n_risk_factors} risk factors"
-                 + (f", {n_paths} paths" if n_paths else "") + f" and {horizon_months} months",
-                 memory_estimate(layout, horizon_months, n_paths),
-                 "use fewer risk factors (the liability grid grows with N), paths or months.")
 
 
 def build_study(n_risk_factors: int, *, horizon_months: int = 120, effects=None,
@@ -107,10 +85,11 @@ def build_fund_study(fund: Fund, *, horizon_months: int | None = None, effects=N
     """The study of a fund read from its files (`load_fund`), over its horizon (or
     `horizon_months`), with its effects (or `effects`, less `without`): on the built-in
     generator, every factor group reported (N = key tenors x 2 + indices x 3 + 4 + 5 + liability
-    rows); on a given `scenario_set` (`load_scenarios`), from the set's starting market, with
-    the key rates, inflation and spread reported as shifts of every scenario, the equity levels,
-    liability rows and holdings (N = key tenors + indices x 2 + 7 + liability rows). The holdings
-    follow from the fund's assets on that initial market (`fund_holdings`).
+    rows, with 4 + 5 read as 4 + (asset classes - 1)); on a given `scenario_set`
+    (`load_scenarios`), from the set's starting market, with the key rates, inflation and spread
+    reported as shifts of every scenario, the equity levels, liability rows and holdings (N = key
+    tenors + indices x 2 + 2 + (asset classes - 1) + liability rows). The holdings follow from the
+    fund's assets on that initial market and the study's effects (`fund_holdings`).
 
     **Raises:** `InputError` as `build_study`, and for a set shorter than the horizon."""
     require_float64("ALM studies")
@@ -132,6 +111,11 @@ def build_fund_study(fund: Fund, *, horizon_months: int | None = None, effects=N
 
 
 def _assembled(problem: ALMProblem, factors: dict) -> Study:
+    names = [name for group in factor_names(problem.layout, problem.market, problem.schedule).values() for name in group]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise InputError(f"factor name {repeated[0]!r} is given to two factors (tenors, equity indices, asset classes "
+                         "and cohorts must name them apart); rename one.")
     values = check_factors(factors, problem.layout)
     reported, fixed = split_reported({k: jnp.asarray(v) for k, v in values.items()}, problem.layout)
     return Study(problem, reported, fixed)

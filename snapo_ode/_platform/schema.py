@@ -74,8 +74,10 @@ def strict_json(text: str, where: str):
         raise InputError(f"{where}: nested too deeply to read.") from None
 
 
-def _line_of(text: str | None, location: Sequence) -> str:
-    """', line N' of the last key of `location` that occurs in `text` as a JSON or YAML key."""
+def line_of(text: str | None, location: Sequence) -> str:
+    """', line N' of the last key of `location` (a field's path, e.g. ["market", "key_rates"])
+    that occurs in `text` as a JSON or YAML key (its first occurrence), or "" where none does:
+    for errors found after a file's schema, so that they name the line too."""
     names = [str(part) for part in location if isinstance(part, str)]
     if text is None or not names:
         return ""
@@ -94,7 +96,7 @@ def validate(model: type[pydantic.BaseModel], data, where: str, text: str | None
         field = ".".join(str(part) for part in first["loc"]) or "the file"
         more = f" ({len(errors) - 1} more error{'s' * (len(errors) > 2)})" if len(errors) > 1 else ""
         value = "" if first["type"] == "missing" else f" = {_shorten(first.get('input'))}"
-        raise InputError(f"{where}{_line_of(text, first['loc'])}: {field}{value}: {first['msg']}{more}.") from None
+        raise InputError(f"{where}{line_of(text, first['loc'])}: {field}{value}: {first['msg']}{more}.") from None
 
 
 def strict_yaml(text: str, where: str):
