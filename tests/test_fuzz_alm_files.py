@@ -9,10 +9,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import snapo_ode
 from finance import alm
 from finance.alm._scenario_file import load_scenarios, write_scenarios
 from finance.alm._scenarios import generated_scenarios
+from fuzzing import loads_or_input_error, mutated_yaml_lines
 
 SAMPLE = alm.sample_fund_path()
 FUND_LINES = SAMPLE.read_text().splitlines(keepends=True)
@@ -21,26 +21,10 @@ FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthChe
 ODD = ["[]", "{}", "abc", "-1", "0", "1e400", ".nan", "null", "[1, 2, 3]", "{a: x}", "true", "'1.0'", "2026-01-01"]
 
 
-def loads_or_input_error(load):
-    try:
-        return load()
-    except snapo_ode.InputError:
-        return None
-
-
 @FUZZ
 @given(data=st.data())
 def test_mutated_fund_yaml(tmp_path, data):
-    lines = list(FUND_LINES)
-    kind = data.draw(st.sampled_from(["truncate", "swap", "delete"]))
-    where = data.draw(st.integers(0, len(lines) - 1))
-    if kind == "truncate":
-        lines = lines[:where] + [lines[where][: data.draw(st.integers(0, len(lines[where])))]]
-    elif kind == "delete":
-        del lines[where]
-    elif ":" in lines[where]:
-        key = lines[where].split(":", 1)[0]
-        lines[where] = f"{key}: {data.draw(st.sampled_from(ODD))}\n"
+    lines = mutated_yaml_lines(data, FUND_LINES, ODD)
     (tmp_path / "fund.yaml").write_text("".join(lines))
     shutil.copy(SAMPLE.parent / "alm_liabilities.csv", tmp_path / "alm_liabilities.csv")
     fund = loads_or_input_error(lambda: alm.load_fund(tmp_path / "fund.yaml"))

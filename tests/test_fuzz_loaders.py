@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 import snapo_ode
 from chemistry import MECHANISMS, Mechanism
 from finance import gas_storage as gs
+from fuzzing import loads_or_input_error, mutated_yaml_lines
 
 FACILITY = gs.sample_facility()
 CURVE_TEXT = "day,price\n" + "".join(f"{d},{p!r}\n" for d, p in enumerate(gs.sample_curve()[:40]))
@@ -19,13 +20,6 @@ MECHANISM_TEXT = (MECHANISMS / "reaction_types.yaml").read_text()
 ODD_VALUES = st.sampled_from([None, "abc", "", [], [1.0, 2.0], {"a": 1}, True, -1.0, 0.0, 1e308, -1e308, 1e-308,
                               float("inf"), [[0.0, 1.0]], [[0.0, 1.0], [0.5]], [[1.0, 1.0], [0.0, 1.0]]])
 FUZZ = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-
-
-def loads_or_input_error(load):
-    try:
-        return load()
-    except snapo_ode.InputError:
-        return None
 
 
 @FUZZ
@@ -67,17 +61,7 @@ def mechanism_lines():
 @FUZZ
 @given(data=st.data())
 def test_mutated_mechanism_yaml(tmp_path, mechanism_lines, data):
-    lines = list(mechanism_lines)
-    kind = data.draw(st.sampled_from(["truncate", "swap", "delete"]))
-    where = data.draw(st.integers(0, len(lines) - 1))
-    if kind == "truncate":
-        lines = lines[:where] + [lines[where][: data.draw(st.integers(0, len(lines[where])))]]
-    elif kind == "delete":
-        del lines[where]
-    elif ":" in lines[where]:
-        key = lines[where].split(":", 1)[0]
-        value = data.draw(st.sampled_from(["[]", "{}", "abc", "-1", "1e400", "null", "[1, 2, 3]", "{A: x}"]))
-        lines[where] = f"{key}: {value}\n"
+    lines = mutated_yaml_lines(data, mechanism_lines, ["[]", "{}", "abc", "-1", "1e400", "null", "[1, 2, 3]", "{A: x}"])
     path = tmp_path / "mechanism.yaml"
     path.write_text("".join(lines))
     mechanism = loads_or_input_error(lambda: Mechanism.from_yaml(path))

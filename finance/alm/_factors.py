@@ -7,6 +7,7 @@ volatilities per year (0.02 = 2%); cash flows and holdings in millions of the fu
 (cash flows per month); equity levels are index points (1.0 at the reference date).
 """
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -100,10 +101,17 @@ def holdings_at_funding_ratio(factors: dict, market: Market, funding_ratio: floa
     bucket at its spread (`credit`: the credit effect is on)."""
     liability = initial_liability_value(factors, market, schedule, indexation)
     values = funding_ratio * liability * np.array([mix[asset] for asset in market.asset_names])
-    prices = np.asarray(initial_prices(factors, market, credit=credit))
     equity_value = values[-1] / market.n_equities
+    return units_held(np.concatenate([values[:-1], np.full(market.n_equities, equity_value)]), factors, market, credit)
+
+
+def units_held(values, factors: dict, market: Market, credit: bool) -> np.ndarray:
+    """The units of each asset (each non-equity class in order, then each equity index) worth
+    `values` [million], shape (classes - 1 + n_equities,), at the initial prices (the credit
+    bucket at its spread when `credit`)."""
+    prices = np.asarray(initial_prices(factors, market, credit=credit))
     plain = len(market.asset_names) - 1
-    return np.concatenate([values[:-1] / prices[:plain], equity_value / np.asarray(factors["equity_levels"])])
+    return np.asarray(values) / np.concatenate([prices[:plain], np.asarray(factors["equity_levels"])])
 
 
 def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: float = 1.1,
@@ -135,6 +143,20 @@ def default_factors(layout: FactorLayout, market: Market, *, funding_ratio: floa
     return factors
 
 
+# The allowed range of each market group: (low, high, low_open).
+MARKET_RANGES = dict(key_rates=(-0.1, 0.5, False), inflation=(-0.1, 0.5, False), spread=(0.0, 0.5, False),
+                     rate_vols=(0.0, 2.0, False), equity_vols=(0.0, 2.0, False), inflation_vol=(0.0, 2.0, False),
+                     spread_vol=(0.0, 2.0, False), equity_levels=(0.0, math.inf, True))
+
+
+def check_market_ranges(factors: dict) -> None:
+    """Check every market group of `factors` against `MARKET_RANGES`.
+
+    **Raises:** `InputError` naming the group, the entry, the value and the allowed range."""
+    for group, (low, high, low_open) in MARKET_RANGES.items():
+        check_range(group, factors[group], low, high, low_open=low_open)
+
+
 def check_factors(factors: dict, layout: FactorLayout) -> dict:
     """Validate every group's shape and range before anything is compiled; returns float64
     numpy arrays.
@@ -151,12 +173,7 @@ def check_factors(factors: dict, layout: FactorLayout) -> dict:
         if value.shape != expected:
             raise InputError(f"{group} has shape {value.shape}; expected {expected}.")
         checked[group] = value
-    check_range("key_rates", checked["key_rates"], -0.1, 0.5)
-    check_range("inflation", checked["inflation"], -0.1, 0.5)
-    check_range("spread", checked["spread"], 0.0, 0.5)
-    for group in ("rate_vols", "equity_vols", "inflation_vol", "spread_vol"):
-        check_range(group, checked[group], 0.0, 2.0)
-    check_range("equity_levels", checked["equity_levels"], 0.0, low_open=True)
+    check_market_ranges(checked)
     check_range("liability_cash_flows", checked["liability_cash_flows"], 0.0)
     check_range("holdings", checked["holdings"], 0.0)
     if checked["liability_cash_flows"].sum() <= 0:

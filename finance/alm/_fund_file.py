@@ -17,11 +17,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from snapo_ode import InputError, check_range, line_of, read_text, strict_yaml, validate
+from snapo_ode import InputError, line_of, read_text, strict_yaml, validate
 
-from ._assets import initial_prices
 from ._board import BoardSettings
-from ._factors import DEFAULT_MIX, holdings_at_funding_ratio
+from ._factors import DEFAULT_MIX, check_market_ranges, holdings_at_funding_ratio, units_held
 from ._liabilities import LiabilitySchedule
 from ._liability_file import load_liabilities
 from ._market import ASSETS, AssetClass, Market, check_asset_classes
@@ -132,9 +131,7 @@ def fund_holdings(fund: Fund, factors: dict, scene) -> np.ndarray:
         names = (*market.asset_names[:-1], *market.equity_names)
         values = np.array([assets.holdings[name] for name in names]) * in_millions(
             assets.holdings_unit, "holdings_unit", fund.currency)
-        prices = initial_prices(factors, market, credit=scene.has("credit"))
-        return values / np.concatenate([np.asarray(prices)[:len(market.asset_names) - 1],
-                                        np.asarray(factors["equity_levels"])])
+        return units_held(values, factors, market, scene.has("credit"))
     mix = DEFAULT_MIX if assets.mix is None else assets.mix
     return holdings_at_funding_ratio(factors, market, assets.initial_funding_ratio, mix, fund.schedule,
                                      indexed_share(fund.config, scene), credit=scene.has("credit"))
@@ -199,17 +196,13 @@ _FILE_KEYS = dict(equity_vols="volatility", equity_levels="level")  # a factor g
 
 
 def _check_market_factors(factors: dict, file: _Locator) -> None:
-    """The market groups' ranges (`check_factors`'s), named as the file names them, with the line."""
-    checks = dict(key_rates=(-0.1, 0.5), inflation=(-0.1, 0.5), spread=(0.0, 0.5), rate_vols=(0.0, 2.0),
-                  equity_vols=(0.0, 2.0), inflation_vol=(0.0, 2.0), spread_vol=(0.0, 2.0))
-    for group, (low, high) in checks.items():
-        try:
-            check_range(group, factors[group], low, high)
-        except InputError as error:
-            raise InputError(f"{file.at(_FILE_KEYS.get(group, group))}: market.{error}") from None
-    if np.any(factors["equity_levels"] <= 0):
-        raise InputError(f"{file.at('level')}: market.equities level = {factors['equity_levels'].min():g}; "
-                         "allowed: > 0.")
+    """The market groups' ranges (`check_market_ranges`, as the model checks them), named as the
+    file names them, with the line."""
+    try:
+        check_market_ranges(factors)
+    except InputError as error:
+        group = str(error).split(" ", 1)[0].split("[", 1)[0]
+        raise InputError(f"{file.at(_FILE_KEYS.get(group, group))}: market.{error}") from None
 
 
 def sample_fund_path() -> pathlib.Path:

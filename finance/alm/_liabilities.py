@@ -163,12 +163,18 @@ def liability_value(profile_row, key_rates, tenors, *, indexation=None):
     return (discount * (1.0 - fraction + fraction * indexed)) @ profile_row
 
 
-def initial_liability_value(factors: dict, market: Market, schedule: LiabilitySchedule | None = None,
-                            indexation: float | None = None) -> float:
+def starting_liability_value(factors: dict, market: Market, schedule: LiabilitySchedule | None = None,
+                             indexation: float | None = None):
     """The liability value [million] on the initial curve, as the simulation values it at the
     start: with `indexation` (the indexed share of the benefits, growing at the initial
-    inflation), or without (None)."""
+    inflation), or without (None); a traceable scalar."""
     profile = key_rate_profile(factors["liability_cash_flows"], market, 0, schedule)[0]
     rates = jnp.asarray(factors["key_rates"])[None, :]
     indexed = None if indexation is None else (indexation, jnp.ones(1), jnp.reshape(factors["inflation"], (1,)))
-    return float(liability_value(profile, rates, market.tenors, indexation=indexed)[0])
+    return liability_value(profile, rates, market.tenors, indexation=indexed)[0]
+
+
+def initial_liability_value(factors: dict, market: Market, schedule: LiabilitySchedule | None = None,
+                            indexation: float | None = None) -> float:
+    """`starting_liability_value` as a host float [million]."""
+    return float(starting_liability_value(factors, market, schedule, indexation))

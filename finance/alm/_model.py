@@ -28,7 +28,7 @@ from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_choice
 
 from ._assets import MarketState, gross_returns, initial_prices, scenario_returns, zero_rate
 from ._factors import FactorLayout
-from ._liabilities import LiabilitySchedule, bucket_schedule, key_rate_profile, liability_value
+from ._liabilities import LiabilitySchedule, bucket_schedule, key_rate_profile, liability_value, starting_liability_value
 from ._market import MONTH, RATE_DRIVERS, Market
 from ._market_step import next_market, scenario_state
 from ._policy import AbstractRebalancing
@@ -151,11 +151,8 @@ def initial_values(problem: ALMProblem, factors: dict) -> tuple[jax.Array, jax.A
     derivatives are one `jax.jacfwd` away."""
     market = problem.market
     assets = jnp.sum(jnp.asarray(factors["holdings"]) * initial_prices(factors, market, credit=problem.scene.has("credit")))
-    profile = key_rate_profile(factors["liability_cash_flows"], market, 0, problem.schedule)[0]
-    share = indexed_share(problem.config, problem.scene)
-    indexation = None if share is None else (share, jnp.ones(1), jnp.reshape(factors["inflation"], (1,)))
-    rates = jnp.asarray(factors["key_rates"])[None, :]
-    return assets, liability_value(profile, rates, jnp.asarray(market.tenors), indexation=indexation)[0]
+    return assets, starting_liability_value(factors, market, problem.schedule,
+                                            indexed_share(problem.config, problem.scene))
 
 
 def initial_funding_ratio(problem: ALMProblem, factors: dict) -> float:

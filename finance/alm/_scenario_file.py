@@ -20,6 +20,7 @@ order); `.npz`, the arrays `values` (scenarios x times x variables), `times` (ye
 `variables` (names).
 """
 
+import io
 import os
 import pathlib
 import re
@@ -85,8 +86,6 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
         raise InputError(f"{where}: unknown format {suffix!r}; allowed: .csv, .parquet (long tables) or .npz.")
     try:
         if suffix == ".csv":
-            import io
-
             # Blank lines kept (so a row's line is its index + 2) and dropped below; ids as text ("01" != "1").
             table = pd.read_csv(io.StringIO(read_text(path, "scenario", MAX_SCENARIO_BYTES)), skipinitialspace=True,
                                 dtype={"scenario": str, "variable": str}, skip_blank_lines=False)
@@ -225,8 +224,6 @@ def write_scenarios(path: str | os.PathLike, scenarios: ScenarioSet, market: Mar
     by_scenario = np.transpose(scenarios.values, (1, 0, 2))
     suffix = path.suffix.lower()
     if suffix == ".npz":
-        import io
-
         buffer = io.BytesIO()
         np.savez(buffer, values=by_scenario, times=times, variables=np.array(names))
         return atomic_write_bytes(path, buffer.getvalue())
@@ -239,8 +236,6 @@ def write_scenarios(path: str | os.PathLike, scenarios: ScenarioSet, market: Mar
         "value": by_scenario.reshape(-1)})
     if suffix == ".csv":
         return atomic_write_bytes(path, table.to_csv(index=False, float_format="%.17g").encode())
-    import io
-
     buffer = io.BytesIO()
     table.to_parquet(buffer, index=False)
     return atomic_write_bytes(path, buffer.getvalue())
