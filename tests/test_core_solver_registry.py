@@ -44,10 +44,10 @@ def test_a_registered_solver_is_a_name_like_the_built_in_ones(rk45):
     assert described["step_controller"].startswith("ScipyRK45's own step control")
     # The CLI edge: the pharma verb's --solver takes the new name as it takes "rodas5".
     from chemistry.pharma._cli import chain_from_args
-    from chemistry.pharma._ranges import CPP_RANGES
+    from chemistry.pharma import CPP_RANGES
 
-    args = argparse.Namespace(rtol=1e-8, atol=1e-10, solver=rk45, nonstiff_solver="tsit5", without=[],
-                              **{spec.name: spec.nominal for spec in CPP_RANGES})
+    args = argparse.Namespace(rtol=1e-8, atol=1e-10, solver=rk45, nonstiff_solver="tsit5", without=[], process=None,
+                              settings=[], **{spec.name: spec.nominal for spec in CPP_RANGES})
     chain, _ = chain_from_args(args)
     assert isinstance(chain.solver.solver, ScipyRK45)
 

@@ -15,9 +15,9 @@ import pytest
 import snapo_ode
 from chemistry import Mechanism
 from chemistry.pharma import (
-    CHAIN_SOLVER, CPP_NAMES, CPP_RANGES, DEFAULT_MECHANISM, MOLAR_MASSES, PHARMA_EFFECTS, Crystallizer, Dryer,
-    LinearRamp, PharmaChain, arrhenius, cantera_check, cqa_vector, default_physical_parameters, make_cpps,
-    outside_par, r1_trajectory, solubility, stiffness_ratio)
+    CHAIN_SOLVER, CPP_NAMES, CPP_RANGES, DEFAULT_MECHANISM, PHARMA_EFFECTS, Crystallizer, Dryer, LinearRamp,
+    PharmaChain, arrhenius, cantera_check, cqa_vector, default_physical_parameters, make_cpps, outside_par,
+    r1_trajectory, solubility, stiffness_ratio)
 
 TIGHT = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, max_steps=20000)
 
@@ -25,6 +25,12 @@ TIGHT = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, max_steps=20000)
 @pytest.fixture(scope="module")
 def physical():
     return default_physical_parameters()
+
+
+def unit_parameters(physical, unit: str, **cpps) -> dict:
+    """The built-in chain's `unit` parameters (name -> value) at the nominal CPPs, or at `cpps`."""
+    chain = PharmaChain()
+    return chain.unit_parameters(chain.inputs(make_cpps(**cpps), physical=physical))[unit]
 
 
 @pytest.mark.parametrize("without", [(), ("energy_balance",)])
@@ -41,8 +47,11 @@ def test_mechanism_is_liquid_and_molar_masses_are_cantera_s():
     liquid = cantera.Solution(str(DEFAULT_MECHANISM))
     assert liquid.thermo_model == "ideal-condensed" and liquid.kinetics_model == "bulk"
     assert all(not reaction.reversible for reaction in liquid.reactions())
-    np.testing.assert_allclose([MOLAR_MASSES[name] for name in liquid.species_names], liquid.molecular_weights,
-                               rtol=1e-4)
+    masses = np.asarray(PharmaChain().molar_masses)
+    # Cantera's from the elements, but the solvent's, which the process file states (46.07, Cantera 46.069).
+    np.testing.assert_array_equal(masses[:-1], liquid.molecular_weights[:-1])
+    assert liquid.species_names[-1] == "S" and masses[-1] == 46.07
+    np.testing.assert_allclose(masses, liquid.molecular_weights, rtol=1e-4)
 
 
 @pytest.mark.parametrize("corner", list(itertools.product(*[r.par for r in CPP_RANGES[:2]])))
@@ -59,33 +68,33 @@ def test_r1_is_stiff_and_stays_non_negative_at_every_corner(physical, corner):
 
 
 def test_dryer_matches_its_closed_form(physical):
-    temperature = jnp.asarray(321.0)
-    out = Dryer(True).dry(jnp.asarray(0.3), jnp.asarray(0.99), temperature, physical, TIGHT)
-    time = float(physical.drying_time)
-    drying = float(arrhenius(physical.drying_rate, physical.drying_activation, temperature,
-                             physical.dryer_ref_temperature))
-    degrading = float(arrhenius(physical.solid_degradation_rate, physical.solid_degradation_activation,
-                                temperature, physical.dryer_ref_temperature))
+    dryer = unit_parameters(physical, "dryer", dryer_temperature=321.0)
+    temperature = dryer["temperature"]
+    out = Dryer(True).dry(jnp.asarray(0.3), jnp.asarray(0.99), dryer, TIGHT)
+    time = float(dryer["time"])
+    drying = float(arrhenius(dryer["drying_rate"], dryer["drying_activation"], temperature, dryer["reference_temperature"]))
+    degrading = float(arrhenius(dryer["degradation_rate"], dryer["degradation_activation"], temperature,
+                                dryer["reference_temperature"]))
     assert float(out.solvent) == pytest.approx(0.3 * np.exp(-drying * time), rel=1e-9)
     assert float(out.degradant_formed) == pytest.approx(0.99 * -np.expm1(-degrading * time), rel=1e-8)
 
 
 def test_crystallizer_conserves_api_and_follows_van_t_hoff(physical):
-    api0 = jnp.asarray(0.28)
-    ramp = LinearRamp(physical.hold_temperature, physical.final_temperature)
-    out = Crystallizer(MOLAR_MASSES["P"], True)(api0, jnp.asarray(3e-3), jnp.asarray(1e-4), ramp, 5400.0,
-                                                physical, TIGHT)
-    seed = float(physical.seed_loading)
-    grown = float(out.crystal_mass(physical)) - seed
-    moved = (float(api0) - float(out.api)) * MOLAR_MASSES["P"]
+    api0, crystallizer = jnp.asarray(0.28), unit_parameters(physical, "crystallizer")
+    api_mass = float(PharmaChain().molar_masses[2])  # P
+    ramp = LinearRamp(physical["r2.temperature"], crystallizer["final_temperature"])
+    out = Crystallizer(api_mass, True)(api0, jnp.asarray(3e-3), jnp.asarray(1e-4), ramp, 5400.0, crystallizer, TIGHT)
+    seed = float(crystallizer["seed_loading"])
+    grown = float(out.crystal_mass) - seed
+    moved = (float(api0) - float(out.api)) * api_mass
     assert grown == pytest.approx(moved, rel=1e-9)
     # At the end the liquor is supersaturated (growth needs it) but within a factor 2 of C*.
-    saturated = float(solubility(physical.final_temperature, physical))
+    saturated = float(solubility(crystallizer["final_temperature"], crystallizer))
     assert saturated < float(out.api) < 2 * saturated
-    ratio = float(solubility(jnp.asarray(300.0), physical) / solubility(jnp.asarray(310.0), physical))
-    assert ratio == pytest.approx(np.exp(-float(physical.solubility_enthalpy) / 8314.46261815324
+    ratio = float(solubility(jnp.asarray(300.0), crystallizer) / solubility(jnp.asarray(310.0), crystallizer))
+    assert ratio == pytest.approx(np.exp(-float(crystallizer["solubility_enthalpy"]) / 8314.46261815324
                                          * (1 / 300 - 1 / 310)), rel=1e-12)
-    assert 0 < float(out.impurity_solid) < 3e-3 and float(out.mean_size()) > float(physical.seed_size)
+    assert 0 < float(out.impurity_solid) < 3e-3 and float(out.mean_size()) > float(crystallizer["seed_size"])
 
 
 def _ops(scene, physical):
@@ -138,7 +147,7 @@ def test_side_reactions_off_removes_the_impurity_and_the_stiffness(physical):
     assert len(chain.active_reactions) == 2
     result = chain.simulate(chain.inputs(make_cpps(), physical=physical))
     i, x = chain.species_index("I"), chain.species_index("X")
-    assert float(result.r2.amounts[i]) == 0.0 and float(result.r2.amounts[x]) == 0.0
+    assert float(result.outlets["r2"].amounts[i]) == 0.0 and float(result.outlets["r2"].amounts[x]) == 0.0
     assert float(cqa_vector(result)[1]) == 0.0
 
 
@@ -177,7 +186,7 @@ def test_bad_input_names_the_field(tmp_path):
 
 
 def test_a_failed_solve_raises_with_advice_either_way(physical):
-    args = (jnp.asarray(0.3), jnp.asarray(0.99), jnp.asarray(321.0), physical, CHAIN_SOLVER.replace(max_steps=2))
+    args = (jnp.asarray(0.3), jnp.asarray(0.99), unit_parameters(physical, "dryer"), CHAIN_SOLVER.replace(max_steps=2))
     # Through call_checked: no callback in the program; the NaN mark is turned into the error on the host.
     with pytest.raises(snapo_ode.SolverFailed, match="max_steps"):
         snapo_ode.call_checked(eqx.filter_jit(Dryer(True).dry), *args, what="the dryer")

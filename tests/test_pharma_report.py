@@ -38,7 +38,7 @@ def test_html_numbers_are_the_json_and_the_evidence_holds(report_dir):
     assert verification["r1_stiffness_ratio"] >= 1e6
     provenance = doc["provenance"]
     assert provenance["packages"]["jax"] and len(provenance["git_commit"] or "") == 40
-    assert set(provenance["input_sha256"]) == {"mechanism", "cpps", "physical_parameters", "solver", "effects"}
+    assert set(provenance["input_sha256"]) == {"process", "mechanism", "cpps", "physical_parameters", "solver", "effects"}
     assert provenance["command"].startswith("snapo report pharma --out")
     rows = list(csv.reader((report_dir / "sensitivities.csv").open()))
     assert len(rows) == 1 + 5 * (4 + 43)

@@ -1,13 +1,14 @@
-"""chemistry.pharma: a 4-unit API manufacturing chain (R1 synthesis, R2 hold, cooling
-crystallizer, filter-dryer) as Diffrax solves composed of units, its ICH Q8 sensitivities (every
-CQA to every CPP and to every kinetic and physical parameter), design space, trained temperature
-profiles and report. Public names load on first use (see `snapo_ode.lazy_exports`)."""
+"""chemistry.pharma: a process described in a file (`load_process`; the built-in is a 4-unit API
+chain: R1 synthesis, R2 hold, cooling crystallizer, filter-dryer) as Diffrax solves composed of
+units, its ICH Q8 sensitivities (every CQA to every CPP and to every kinetic and physical
+parameter), design space, trained temperature profiles and report. Public names load on first
+use (see `snapo_ode.lazy_exports`)."""
 
 from snapo_ode import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._bench": ("run_pharma_benchmark",),
-    "._chain": ("CHAIN_SOLVER", "DEFAULT_MECHANISM", "PHARMA_EFFECTS", "ChainResult", "PharmaChain", "chain_species"),
+    "._chain": ("CHAIN_SOLVER", "DEFAULT_MECHANISM", "PHARMA_EFFECTS", "ChainResult", "PharmaChain"),
     "._cqa": ("cqa_dict", "cqa_vector", "meets_specs", "spec_margins", "spec_penalty"),
     "._crystallizer": ("CoolingCrystallizer", "Crystallizer", "CrystallizerOutlet", "EquilibriumIsolation", "Slurry",
                        "SpeciesRoles", "solubility"),
@@ -15,11 +16,15 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
     "._dryer": ("Dryer", "DryerOutlet"),
     "._filter": ("Filter",),
     "._liquid": ("HoldReactor", "LiquidBatch", "SynthesisReactor", "TEMPERATURE_SCALE"),
-    "._parameters": ("MOLAR_MASSES", "PHYSICAL_NAMES", "ChainInputs", "CPPs", "PhysicalParameters", "arrhenius",
-                     "default_physical_parameters", "make_cpps", "outside_par"),
+    "._parameters": ("ChainInputs", "CPPs", "NamedValues", "PhysicalParameters", "arrhenius"),
+    "._process": ("default_physical_parameters", "load_process", "make_cpps", "molar_masses", "outside_par",
+                  "physical_parameters"),
+    "._process_file": ("BUILT_IN_PROCESS", "CPP_NAMES", "CPP_RANGES", "CQA_NAMES", "CQA_SPECS", "CQA_UNITS", "ProcessSpec",
+                       "UnitSpec", "read_process_file"),
+    "._unit_catalogue": ("UNIT_PARAMETERS", "Parameter"),
     "._policy": ("ProfileStudy", "Profiles", "evaluate_hard", "train_profiles"),
     "._profiles": ("AbstractTemperatureProfile", "ConstantTemperature", "LinearRamp", "NeuralTemperature"),
-    "._ranges": ("CPP_NAMES", "CPP_RANGES", "CQA_NAMES", "CQA_SPECS", "ParameterRange", "Specification"),
+    "._ranges": ("ParameterRange", "Specification"),
     "._report": ("build_report", "pharma_report", "report_provenance", "write_report"),
     "._sensitivities": ("cqa_function", "input_names", "input_scales", "jacobian_function", "named_jacobian",
                         "parameter_names", "rate_names", "shifted_cqas"),

@@ -15,7 +15,7 @@ from snapo_ode import (
 from ..kinetics._gradient_accuracy import ignition_gradient_panel
 from ._chain import CHAIN_SOLVER, PharmaChain, chain_method
 from ._cqa import cqa_vector
-from ._parameters import make_cpps
+from ._process import make_cpps
 from ._sensitivities import _values_and_jacobian, cpp_only, jacobian_function
 from ._study import REFERENCE, REFERENCE_METHODS
 

@@ -10,7 +10,7 @@ from snapo_ode import Column, agreement, call_checked, format_table, time_functi
 
 from ._chain import CHAIN_SOLVER, PharmaChain
 from ._cqa import cqa_vector
-from ._parameters import make_cpps
+from ._process import make_cpps
 from ._sensitivities import jacobian_function
 from ._study import REFERENCE
 

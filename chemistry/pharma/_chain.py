@@ -1,7 +1,8 @@
-"""The four-unit chain: R1 (jacketed plug-flow synthesis) -> R2 (hold) -> cooling crystallizer ->
-filter (algebraic) -> dryer, each a unit (`_unit.AbstractUnit`) whose outlet feeds the next, so
-gradients flow across units. Assembled from named effects: an effect left out is a unit or a
-reaction that is not built, not one multiplied by zero."""
+"""A process as one differentiable function: its units (`_unit.AbstractUnit`) in the order its
+file states them, each outlet feeding the next, so gradients flow across units; the built-in is
+R1 (jacketed plug flow) -> R2 (hold) -> cooling crystallizer -> filter (algebraic) -> dryer.
+Assembled from named effects: an effect left out is a unit or a reaction that is not built, not
+one multiplied by zero."""
 
 import dataclasses
 from pathlib import Path
@@ -15,18 +16,15 @@ import numpy as np
 import optimistix as optx
 
 from chemistry import MECHANISMS, Mechanism, RateParameters
-from snapo_ode import EffectCatalogue, InputError, Scene, Solver, SolverSettings, solver_from_name
+from snapo_ode import EffectCatalogue, Scene, Solver, SolverSettings, solver_from_name
 
 from ..kinetics._types import Scalar, Vector
-from ._crystallizer import (
-    Crystallizer, CrystallizerOutlet, CoolingCrystallizer, EquilibriumIsolation, SpeciesRoles)
-from ._dryer import Dryer
-from ._filter import Filter
-from ._liquid import HoldReactor, LiquidBatch, SynthesisReactor
-from ._parameters import MOLAR_MASSES, ChainInputs, CPPs, PhysicalParameters, default_physical_parameters
+from ._crystallizer import CrystallizerOutlet, SpeciesRoles
+from ._parameters import ChainInputs, CPPs, PhysicalParameters
+from ._process import check_mechanism, load_process, make_cpps, molar_masses, physical_parameters
+from ._process_file import ProcessSpec
 from ._profiles import AbstractTemperatureProfile
-from ._ranges import REACTIONS, SPECIES
-from ._unit import Liquid, Solids
+from ._unit import AbstractUnit, Liquid, Solids
 
 PHARMA_EFFECTS = EffectCatalogue(
     "pharma chain",
@@ -42,6 +40,7 @@ PHARMA_EFFECTS = EffectCatalogue(
     requires={"impurity_incorporation": ("crystallization",)},
 )
 DEFAULT_MECHANISM = MECHANISMS / "pharma.yaml"
+"""The built-in process's mechanism."""
 
 
 STAGE_ROOT_FINDER = optx.Newton(rtol=1e-6, atol=1e-9)
@@ -73,16 +72,17 @@ methods by name: `chain_method`."""
 class ChainResult(NamedTuple):
     """Every unit's outlet.
 
-    - `r1`, `r2`: `Liquid` (amounts per m^3 of R1's feed volume).
+    - `outlets`: unit name -> its outlet (a reactor's `Liquid`, amounts per m^3 of the first
+      reactor's feed volume; the crystallizer's `Slurry`; the filter's and the dryer's `Solids`).
     - `liquor`: molar concentrations entering the crystallizer [kmol/m^3], shape (n_species,).
     - `crystallizer`: `CrystallizerOutlet` (per m^3 of liquor).
-    - `cake`: the `Solids` entering the dryer [kg per m^3 of liquor].
-    - `product`: the dried `Solids` [kg per m^3 of liquor] (the cake without the drying effect).
-    - `api_yield` [%]: API in the product over A fed, in moles.
+    - `cake`: the filter's `Solids` [kg per m^3 of liquor].
+    - `product`: the dried `Solids` [kg per m^3 of liquor] (the cake without a dryer or the
+      drying effect).
+    - `api_yield` [%]: API in the product over the first fed species, in moles.
     """
 
-    r1: Liquid
-    r2: Liquid
+    outlets: dict
     liquor: Vector
     crystallizer: CrystallizerOutlet
     cake: Solids
@@ -105,131 +105,196 @@ def _reduce(mechanism: Mechanism, keep: tuple[int, ...]) -> Mechanism:
     )
 
 
-def chain_species(mechanism: Mechanism, path) -> dict[str, int]:
-    """The indices of the species and reactions the chain needs.
-
-    **Raises:** `InputError` naming the missing species or reaction (and the file).
-    """
-    species = {}
-    for role, name in SPECIES.items():
-        if name not in mechanism.species_names:
-            raise InputError(f"mechanism {path}: species {name!r} ({role}) is missing; the pharma chain "
-                             f"needs {', '.join(SPECIES.values())}.")
-        species[name] = mechanism.species_index(name)
-    for equation in REACTIONS:
-        if equation not in mechanism.reaction_equations:
-            raise InputError(f"mechanism {path}: reaction {equation!r} is missing; the pharma chain needs "
-                             f"{', '.join(map(repr, REACTIONS))}.")
-    if mechanism.thermo_model != "ideal-condensed":
-        raise InputError(f"mechanism {path}: thermo = {mechanism.thermo_model!r}; the pharma chain is a "
-                         "liquid: 'ideal-condensed'.")
-    return species
+def _process(process) -> ProcessSpec:
+    return process if isinstance(process, ProcessSpec) else load_process(process)
 
 
 class PharmaChain(eqx.Module):
-    """The chain as one differentiable function of its `ChainInputs` (CPPs, rate parameters,
+    """A process as one differentiable function of its `ChainInputs` (CPPs, rate parameters,
     physical parameters).
 
     **Arguments:**
-    - `mechanism`: the kinetics (default: `chemistry/mechanisms/pharma.yaml`), or a path.
+    - `mechanism`: the kinetics (default: the process's mechanism file), or a path.
     - `scene`: the active effects (default: all of `PHARMA_EFFECTS`).
     - `solver`: `SolverSettings` of every unit (default `CHAIN_SOLVER`).
+    - `process`: a `ProcessSpec` or the path of a process file (default: the built-in
+      `chemistry/pharma/processes/api_chain.yaml`).
+
+    **Raises:** `InputError` naming the process file where the mechanism lacks a species or a
+    reaction the process names, or has a species without a role.
     """
 
     mechanism: Mechanism
+    process: ProcessSpec = eqx.field(static=True)
     scene: Scene = eqx.field(static=True)
     solver: SolverSettings = eqx.field(static=True)
     species: tuple[tuple[str, int], ...] = eqx.field(static=True)
     active_reactions: tuple[int, ...] = eqx.field(static=True)
-    molar_masses: Vector
+    equilibrium_species: tuple[int, int] | None = eqx.field(static=True)
+    masses: tuple[float, ...] = eqx.field(static=True)
 
     def __init__(self, mechanism: Mechanism | str | Path | None = None, scene: Scene | None = None,
-                 solver: SolverSettings | None = None):
-        path = DEFAULT_MECHANISM if mechanism is None else mechanism
-        self.mechanism = mechanism if isinstance(mechanism, Mechanism) else Mechanism.from_yaml(path)
-        self.species = tuple(chain_species(self.mechanism, path).items())
+                 solver: SolverSettings | None = None, *, process: ProcessSpec | str | Path | None = None,
+                 masses: tuple[float, ...] | None = None):
+        self.process = _process(process)
+        if not isinstance(mechanism, Mechanism):
+            mechanism = Mechanism.from_yaml(self.process.mechanism if mechanism is None else mechanism,
+                                            self.process.phase)
+        self.mechanism = mechanism
+        check_mechanism(self.process, mechanism.species_names, mechanism.reaction_equations, mechanism.thermo_model)
+        self.species = tuple((name, k) for k, name in enumerate(mechanism.species_names))
         self.scene = PHARMA_EFFECTS.scene() if scene is None else scene
         self.solver = CHAIN_SOLVER if solver is None else solver
-        self.active_reactions = tuple(
-            self.mechanism.reaction_equations.index(equation) for equation, effect in REACTIONS.items()
-            if not effect or self.scene.has(effect))
-        self.molar_masses = jnp.asarray([MOLAR_MASSES[name] for name in self.mechanism.species_names])
+        effects = self.process.reaction_effects
+        self.active_reactions = tuple(k for k, equation in enumerate(mechanism.reaction_equations)
+                                      if equation not in effects or self.scene.has(effects[equation]))
+        self.equilibrium_species = None
+        if self.process.equilibrium is not None:  # the forward reaction's reactant and product
+            row = np.asarray(mechanism.net_stoichiometry[mechanism.reaction_equations.index(self.process.equilibrium[0])])
+            self.equilibrium_species = (int(np.argmin(row)), int(np.argmax(row)))
+        if masses is None:
+            table = molar_masses(self.process)
+            masses = tuple(table[name] for name in mechanism.species_names)
+        self.masses = masses
 
     def with_solver(self, solver: SolverSettings) -> "PharmaChain":
-        return PharmaChain(self.mechanism, self.scene, solver)
+        return PharmaChain(self.mechanism, self.scene, solver, process=self.process, masses=self.masses)
 
     def with_scene(self, scene: Scene) -> "PharmaChain":
-        return PharmaChain(self.mechanism, scene, self.solver)
+        return PharmaChain(self.mechanism, scene, self.solver, process=self.process, masses=self.masses)
+
+    @property
+    def molar_masses(self) -> Vector:
+        """[kg/kmol] of each species, in the mechanism's order (`masses` as an array)."""
+        return jnp.asarray(self.masses)
 
     @property
     def rate_parameters(self) -> RateParameters:
         """The mechanism's own rate parameters (all reactions, in the file's order)."""
         return self.mechanism.parameters
 
+    @property
+    def cpp_ranges(self):
+        return self.process.cpps
+
+    @property
+    def cpp_names(self) -> tuple[str, ...]:
+        return tuple(spec.name for spec in self.process.cpps)
+
+    @property
+    def cqa_specs(self):
+        return self.process.cqas
+
+    @property
+    def cqa_names(self) -> tuple[str, ...]:
+        return tuple(spec.name for spec in self.process.cqas)
+
     def species_index(self, name: str) -> int:
         return dict(self.species)[name]
 
+    def role_species(self, role: str) -> str:
+        """The species with `role` (one of the roles the units track: api, impurity, degradant, solvent)."""
+        return self.process.species_with_role(role)[0]
+
+    def cpps(self, **values: float) -> CPPs:
+        """The process's CPPs (`make_cpps`): the nominal values, with `values` by name."""
+        return make_cpps(self.process, **values)
+
+    def physical(self, **overrides: float) -> PhysicalParameters:
+        """The process's physical parameters (`physical_parameters`), with `overrides` by name."""
+        return physical_parameters(self.process, **overrides)
+
     def inputs(self, cpps: CPPs, rates: RateParameters | None = None,
                physical: PhysicalParameters | None = None) -> ChainInputs:
-        """The `ChainInputs` at `cpps`, with the mechanism's rates and the default physical
+        """The `ChainInputs` at `cpps`, with the mechanism's rates and the process file's physical
         parameters unless given."""
         return ChainInputs(cpps, self.rate_parameters if rates is None else rates,
-                           default_physical_parameters() if physical is None else physical)
+                           self.physical() if physical is None else physical)
 
     @property
     def roles(self) -> SpeciesRoles:
-        return SpeciesRoles(*(self.species_index(name) for name in ("P", "I", "D", "S")))
+        return SpeciesRoles(*(self.species_index(self.role_species(role))
+                              for role in ("api", "impurity", "degradant", "solvent")))
 
     def active(self, inputs: ChainInputs) -> tuple[Mechanism, ChainInputs]:
         """The mechanism reduced to the reactions of the active effects, and `inputs` with their
-        rates only (what R1 and R2 see)."""
+        rates only (what the reactors see)."""
         keep = np.asarray(self.active_reactions)
         return (_reduce(self.mechanism, self.active_reactions),
                 inputs._replace(rates=jax.tree.map(lambda a: a[keep], inputs.rates)))
 
+    def unit_parameters(self, inputs: ChainInputs) -> dict[str, dict]:
+        """unit name -> parameter -> value: the physical parameters ("unit.parameter") and the
+        CPPs at their targets."""
+        parameters = {unit.name: {} for unit in self.process.units}
+        for name, value in (*zip(inputs.physical.names, inputs.physical.values, strict=True),
+                            *((spec.target, inputs.cpps[spec.name]) for spec in self.process.cpps)):
+            unit, _, parameter = name.partition(".")
+            if unit != "feed":
+                parameters[unit][parameter] = value
+        return parameters
+
     def feed(self, inputs: ChainInputs) -> Liquid:
-        """R1's feed [kmol/m^3] at the R1 temperature: A (split with X at the side equilibrium
-        when it is active), B, and solvent filling the volume."""
+        """The first reactor's feed [kmol/m^3] at its temperature: the fed species (the
+        process's equilibrium pair split at its equilibrium when both its reactions run), and
+        solvent filling the volume."""
         mechanism, active = self.active(inputs)
-        temperature, physical = inputs.cpps.r1_temperature, inputs.physical
-        a, x, b, solvent = (self.species_index(n) for n in ("A", "X", "B", "S"))
-        amounts = jnp.zeros(self.mechanism.n_species).at[b].set(physical.feed_b)
-        if self.scene.has("side_reactions"):
+        first = self.process.units[0].name
+        temperature = self.unit_parameters(inputs)[first]["temperature"]
+        amounts = jnp.zeros(self.mechanism.n_species)
+        for name in self.process.feed:
+            amounts = amounts.at[self.species_index(name)].set(inputs.physical[f"feed.{name}"])
+        pair = self.process.equilibrium
+        if pair is not None and all(equation in mechanism.reaction_equations for equation in pair):
             forward, _ = mechanism.rates_of_progress(temperature, jnp.ones(self.mechanism.n_species), active.rates)
             names = mechanism.reaction_equations
-            constant = forward[names.index("A => X")] / forward[names.index("X => A")]
-            amounts = amounts.at[a].set(physical.feed_a / (1 + constant)).at[x].set(
-                physical.feed_a * constant / (1 + constant))
-        else:
-            amounts = amounts.at[a].set(physical.feed_a)
-        volumes = self.mechanism.molar_volumes
+            constant = forward[names.index(pair[0])] / forward[names.index(pair[1])]
+            a, x = self.equilibrium_species
+            fed = inputs.physical[f"feed.{self.mechanism.species_names[a]}"]
+            amounts = amounts.at[a].set(fed / (1 + constant)).at[x].set(fed * constant / (1 + constant))
+        volumes, solvent = self.mechanism.molar_volumes, self.roles.solvent
         return Liquid(amounts.at[solvent].set((1 - amounts @ volumes) / volumes[solvent]), temperature)
 
-    def r1(self, inputs: ChainInputs, *, jacket: AbstractTemperatureProfile | None = None) -> SynthesisReactor:
-        """The R1 unit (on the active reactions; `inputs` as `active` returns them)."""
-        mechanism, _ = self.active(inputs)
-        return SynthesisReactor(LiquidBatch(mechanism, self.scene.has("energy_balance")), jacket)
+    def units(self, inputs: ChainInputs, profiles: dict | None = None) -> tuple[tuple[str, AbstractUnit], ...]:
+        """(name, unit) in the process's order, built for the scene (a dryer without the drying
+        effect is left out); `profiles`: unit name -> a temperature profile (a reactor's
+        jacket, a crystallizer's cooling)."""
+        from ._process_units import build_unit
 
-    def simulate(self, inputs: ChainInputs | CPPs, *, r1_jacket: AbstractTemperatureProfile | None = None,
+        mechanism, _ = self.active(inputs)
+        built = ((unit.name, build_unit(self, unit, mechanism, (profiles or {}).get(unit.name)))
+                 for unit in self.process.units)
+        return tuple((name, unit) for name, unit in built if unit is not None)
+
+    def r1(self, inputs: ChainInputs, *, jacket: AbstractTemperatureProfile | None = None):
+        """The first unit (a reactor; `inputs` as `active` returns them)."""
+        first = self.process.units[0].name
+        return dict(self.units(inputs, {first: jacket}))[first]
+
+    def simulate(self, inputs: ChainInputs | CPPs, *, profiles: dict | None = None,
+                 r1_jacket: AbstractTemperatureProfile | None = None,
                  cooling: AbstractTemperatureProfile | None = None) -> ChainResult:
-        """Run the chain at `inputs` (`PharmaChain.inputs`; or `CPPs` alone, with the default
-        rates and physical parameters). `r1_jacket` (default: constant at `cpps.r1_temperature`)
-        and `cooling` (default: the linear ramp from the hold to the final temperature at
-        `cpps.cooling_rate`) may be learned profiles."""
+        """Run the process at `inputs` (`PharmaChain.inputs`; or `CPPs` alone, with the
+        mechanism's rates and the process file's physical parameters). `profiles` (unit name ->
+        profile; default: each reactor's jacket constant at its temperature, each cooling the
+        linear ramp from the inlet's to the final temperature) may be learned ones; `r1_jacket`
+        and `cooling` set the first reactor's and the crystallizer's."""
         if isinstance(inputs, CPPs):
             inputs = self.inputs(inputs)
-        mechanism, active = self.active(inputs)
-        volumes, roles = self.mechanism.molar_volumes, self.roles
-        r1 = self.r1(inputs, jacket=r1_jacket)(self.feed(inputs), active, self.solver)
-        r2 = HoldReactor(LiquidBatch(mechanism, False))(r1, active, self.solver)
-        if self.scene.has("crystallization"):
-            physics = Crystallizer(MOLAR_MASSES["P"], self.scene.has("impurity_incorporation"))
-            crystallizer = CoolingCrystallizer(physics, volumes, roles, cooling)
-        else:
-            crystallizer = EquilibriumIsolation(MOLAR_MASSES["P"], volumes, roles)
-        slurry = crystallizer(r2, inputs, self.solver)
-        cake = Filter(self.molar_masses, roles)(slurry, inputs, self.solver)
-        product = Dryer(self.scene.has("degradation"))(cake, inputs, self.solver) if self.scene.has("drying") else cake
-        fed = inputs.physical.feed_a / (r2.amounts @ volumes)  # [kmol A per m^3 of liquor]
-        api_yield = 100 * product.api / self.molar_masses[roles.api] / fed
-        return ChainResult(r1, r2, slurry.liquor, slurry.crystals, cake, product, api_yield)
+        profiles = dict(profiles or {})
+        kinds = {unit.type: unit.name for unit in reversed(self.process.units)}
+        for profile, kind in ((r1_jacket, "plug_flow_reactor"), (cooling, "cooling_crystallizer")):
+            if profile is not None:
+                profiles[kinds[kind]] = profile
+        _, active = self.active(inputs)
+        parameters, stream, outlets = self.unit_parameters(inputs), self.feed(inputs), {}
+        liquid = stream
+        for name, unit in self.units(inputs, profiles):
+            liquid = stream if isinstance(stream, Liquid) else liquid
+            stream = outlets[name] = unit(stream, parameters[name], active.rates, self.solver)
+        slurry = next(o for o in outlets.values() if hasattr(o, "crystals"))
+        cake = next(o for o in outlets.values() if isinstance(o, Solids))
+        volumes, api = self.mechanism.molar_volumes, self.roles.api
+        fed = inputs.physical[f"feed.{next(iter(self.process.feed))}"] / (liquid.amounts @ volumes)
+        api_yield = 100 * stream.api / self.molar_masses[api] / fed
+        return ChainResult(outlets, slurry.liquor, slurry.crystals, cake, stream, api_yield)

@@ -8,14 +8,20 @@ import sys
 
 from snapo_ode.cli import count, number, positive, add_device_options, add_training_options
 
-from ._ranges import CPP_RANGES
+from ._process_file import CPP_RANGES
 
 
 def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
-    """CPP values, solver tolerances and effects."""
+    """The process, CPP values, solver tolerances and effects."""
+    parser.add_argument("--process", metavar="FILE", help="a process file (YAML, docs/pharma.md); default: the "
+                        "built-in chain, chemistry/pharma/processes/api_chain.yaml")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="settings",
+                        help="set a CPP by name or target (r1_temperature=315, r1.temperature=315) or a physical "
+                             "parameter (crystallizer.growth_rate=6e-8); the value may carry a unit ('0.5 h'); "
+                             "repeatable")
     for spec in CPP_RANGES:
-        parser.add_argument(f"--{spec.name.replace('_', '-')}", type=number(), default=spec.nominal,
-                            help=f"{spec.description} [{spec.unit}] (nominal {spec.nominal:g}, PAR "
+        parser.add_argument(f"--{spec.name.replace('_', '-')}", type=number(), default=None,
+                            help=f"{spec.description} [{spec.unit}] (built-in chain: nominal {spec.nominal:g}, PAR "
                                  f"{spec.par[0]:g}-{spec.par[1]:g})")
     parser.add_argument("--rtol", type=positive(1), default=1e-8, help="relative tolerance of every unit's solve")
     parser.add_argument("--atol", type=positive(), default=1e-10, help="absolute tolerance (scaled states)")
@@ -47,15 +53,18 @@ def check_solver_errors(args, warnings) -> None:
 
 
 def chain_from_args(args):
-    """The chain and the CPPs from parsed arguments, validated before any compile."""
+    """The chain and its inputs from parsed arguments (`--process`, the CPP flags, `--set`),
+    validated before any compile."""
     from ._chain import CHAIN_SOLVER, PHARMA_EFFECTS, PharmaChain, chain_method
-    from ._parameters import make_cpps
+    from ._settings import settings_values
 
     solver = CHAIN_SOLVER.replace(rtol=args.rtol, atol=args.atol, solver=chain_method(args.solver),
                                   nonstiff_solver=chain_method(args.nonstiff_solver, "nonstiff_solver"))
     scene = PHARMA_EFFECTS.scene(without=args.without)
-    cpps = make_cpps(**{spec.name: getattr(args, spec.name) for spec in CPP_RANGES})
-    return PharmaChain(scene=scene, solver=solver), cpps
+    chain = PharmaChain(scene=scene, solver=solver, process=args.process)
+    flags = {spec.name: getattr(args, spec.name) for spec in CPP_RANGES if getattr(args, spec.name) is not None}
+    cpps, physical = settings_values(chain.process, flags, args.settings)
+    return chain, chain.inputs(chain.cpps(**cpps), physical=chain.physical(**physical))
 
 
 def _finish(result, path) -> int:
@@ -70,9 +79,9 @@ def run_sensitivities(args) -> int:
     from ._study import REFERENCE, sensitivity_study
 
     check_choice("mode", args.mode, ("auto", "reverse", "forward"))
-    chain, cpps = chain_from_args(args)
+    chain, inputs = chain_from_args(args)
     reference = None if args.no_reference else REFERENCE.replace(rtol=args.reference_rtol, atol=args.reference_atol)
-    study = sensitivity_study(chain, cpps, mode=args.mode, repeats=args.repeats, check_bumps=not args.no_bumps,
+    study = sensitivity_study(chain, inputs, mode=args.mode, repeats=args.repeats, check_bumps=not args.no_bumps,
                               reference=reference, max_solver_error=args.max_solver_error)
     check_solver_errors(args, study.warnings)
     return _finish(study, args.json)
@@ -83,8 +92,8 @@ def run_train(args) -> int:
 
     from ._policy import train_profiles
 
-    chain, cpps = chain_from_args(args)
-    study = train_profiles(chain, cpps, steps=args.steps, learning_rate=args.learning_rate,
+    chain, inputs = chain_from_args(args)
+    study = train_profiles(chain, inputs.cpps, inputs.physical, steps=args.steps, learning_rate=args.learning_rate,
                            penalty_weight=args.penalty_weight, sharpness=args.sharpness, seed=args.seed,
                            progress=args.progress, checkpoint_path=args.checkpoint, resume=args.resume)
     written = study.publish(args.json, {".r1.eqx": policy_bytes(study.profiles.r1_jacket.policy),
@@ -110,8 +119,8 @@ def run_design_space(args) -> int:
     from snapo_ode import is_writer
 
     options = _space_options(args)
-    chain, cpps = chain_from_args(args)
-    space = design_space(chain, cpps, **options)
+    chain, inputs = chain_from_args(args)
+    space = design_space(chain, inputs, **options)
     return _finish(space, args.json) if is_writer() else 0
 
 
@@ -121,20 +130,22 @@ def run_report(args) -> int:
     from ._report import build_report, pharma_report, report_provenance
 
     options = _space_options(args)
-    chain, cpps = chain_from_args(args)
-    data = build_report(chain, cpps, repeats=args.repeats, max_solver_error=args.max_solver_error,
+    chain, inputs = chain_from_args(args)
+    data = build_report(chain, inputs, repeats=args.repeats, max_solver_error=args.max_solver_error,
                         check_warnings=lambda warnings: check_solver_errors(args, warnings), **options)
     from snapo_ode import is_writer
 
     if not is_writer():
         return 0
-    return publish_report(args, pharma_report(data, report_provenance(chain, cpps, command=args.command_line)))
+    return publish_report(args, pharma_report(data, report_provenance(chain, inputs, command=args.command_line)))
 
 
 def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
     """The design space's grid, uncertainty, level and verification."""
-    parser.add_argument("--x", default="r1_temperature", help="the CPP on the map's horizontal axis")
-    parser.add_argument("--y", default="dryer_temperature", help="the CPP on the map's vertical axis")
+    parser.add_argument("--x", default=None, help="the CPP on the map's horizontal axis (default: the process's first; "
+                        "the built-in: r1_temperature)")
+    parser.add_argument("--y", default=None, help="the CPP on the map's vertical axis (default: the process's last; "
+                        "the built-in: dryer_temperature)")
     parser.add_argument("--points", type=count(), default=21, help="grid points per CPP over its PAR (default 21)")
     parser.add_argument("--level", "--confidence", type=number(0, 1, low_open=True, high_open=True), default=0.95, dest="level",
                         help="the probability of meeting every spec that defines the design space (default 0.95)")

@@ -1,5 +1,10 @@
-"""The critical quality attributes of the dried product, hard spec checks for reporting and
-smooth spec penalties for training."""
+"""The critical quality attributes of the dried product from the CQA vocabulary (a process file's
+`cqas`), hard spec checks for reporting and smooth spec penalties for training.
+
+The vocabulary, each computed in its unit (`_process_file.CQA_UNITS`) and converted to the
+file's: `assay` (API in the product, % w/w), `mass_fraction` of a tracked species (the API, the
+impurity or the degradant, % w/w), `residual_solvent` (ppm w/w), `d43` (the volume-weighted mean
+crystal size, um), `yield` (API over the first fed species, mol %)."""
 
 import jax
 import jax.numpy as jnp
@@ -7,47 +12,65 @@ import numpy as np
 
 from ..kinetics._types import Batch, Scalar, Vector
 from ._chain import ChainResult
-from ._ranges import CQA_NAMES, CQA_SPECS
+from ._process import load_process
+from ._process_file import ProcessSpec
 
 
-def cqa_vector(result: ChainResult) -> Vector:
-    """[assay % w/w, impurity % w/w, degradant % w/w, mean_crystal_size um, residual_solvent ppm],
-    in the order of `CQA_NAMES`."""
+def _specs(process: ProcessSpec | None):
+    return (process or load_process()).cqas
+
+
+def _value(result: ChainResult, definition, roles: dict):
     product = result.product
-    total = product.total
-    return jnp.stack([
-        100 * product.api / total,
-        100 * product.impurity / total,
-        100 * product.degradant / total,
-        1e6 * result.crystallizer.mean_size(),
-        1e6 * product.solvent / total,
-    ])
+    if definition == "assay":
+        return 100 * product.api / product.total
+    if definition == "residual_solvent":
+        return 1e6 * product.solvent / product.total
+    if definition == "d43":
+        return 1e6 * result.crystallizer.mean_size()
+    if definition == "yield":
+        return result.api_yield
+    return 100 * getattr(product, roles[definition[1]]) / product.total  # ("mass_fraction", species)
 
 
-def _bounds():
-    return np.array([s.low for s in CQA_SPECS]), np.array([s.high for s in CQA_SPECS])
+def cqa_vector(result: ChainResult, process: ProcessSpec | None = None) -> Vector:
+    """The CQAs of `process` (default: the built-in) in its order, each in its file's unit; the
+    built-in: [assay % w/w, impurity % w/w, degradant % w/w, mean_crystal_size um,
+    residual_solvent ppm]."""
+    process = process or load_process()
+    values = []
+    for spec in process.cqas:
+        value = _value(result, spec.definition, process.roles)
+        values.append(value if spec.factor == 1.0 else spec.factor * value)
+    return jnp.stack(values)
 
 
-def spec_margins(cqas) -> Batch:
+def _bounds(process):
+    specs = _specs(process)
+    return np.array([s.low for s in specs]), np.array([s.high for s in specs])
+
+
+def spec_margins(cqas, process: ProcessSpec | None = None) -> Batch:
     """Signed margin of each CQA to its nearest spec limit, relative to the limit's scale
     (positive inside the spec), shape like `cqas`."""
-    low, high = _bounds()
+    low, high = _bounds(process)
     scale = np.where(np.isfinite(high), np.abs(high), np.abs(low))
     margin_low = jnp.where(np.isfinite(low), cqas - np.where(np.isfinite(low), low, 0.0), jnp.inf)
     margin_high = jnp.where(np.isfinite(high), np.where(np.isfinite(high), high, 0.0) - cqas, jnp.inf)
     return jnp.minimum(margin_low, margin_high) / scale
 
 
-def meets_specs(cqas) -> Batch:
+def meets_specs(cqas, process: ProcessSpec | None = None) -> Batch:
     """Hard check: 1.0 where every CQA is inside its spec, else 0.0 (shape `cqas.shape[:-1]`)."""
-    return jnp.all(spec_margins(cqas) >= 0, axis=-1).astype(float)
+    return jnp.all(spec_margins(cqas, process) >= 0, axis=-1).astype(float)
 
 
-def spec_penalty(cqas, sharpness: float = 50.0) -> Scalar:
+def spec_penalty(cqas, sharpness: float = 50.0, process: ProcessSpec | None = None) -> Scalar:
     """Smooth penalty: sum over CQAs of softplus(-sharpness * margin) / sharpness, near zero
     inside the specs and growing linearly (in relative margin) outside."""
-    return jnp.sum(jax.nn.softplus(-sharpness * spec_margins(cqas)) / sharpness)
+    return jnp.sum(jax.nn.softplus(-sharpness * spec_margins(cqas, process)) / sharpness)
 
 
-def cqa_dict(cqas) -> dict[str, float]:
-    return {name: float(value) for name, value in zip(CQA_NAMES, np.asarray(cqas), strict=True)}
+def cqa_dict(cqas, process: ProcessSpec | None = None) -> dict[str, float]:
+    names = [spec.name for spec in _specs(process)]
+    return {name: float(value) for name, value in zip(names, np.asarray(cqas), strict=True)}

@@ -16,8 +16,10 @@ import jax.numpy as jnp
 from chemistry import GAS_CONSTANT
 from snapo_ode import SolverSettings
 
+from chemistry import RateParameters
+
 from ..kinetics._types import Scalar, Vector
-from ._parameters import ChainInputs, arrhenius
+from ._parameters import arrhenius
 from ._profiles import AbstractTemperatureProfile, LinearRamp
 from ._unit import AbstractUnit, Liquid
 
@@ -26,10 +28,10 @@ N_REF = 1e10  # [1/m^3]
 L_REF = 1e-4  # [m]
 
 
-def solubility(temperature, physical):
-    """C*(T) [kmol/m^3], van't Hoff."""
-    inverse = 1 / temperature - 1 / physical.solubility_ref_temperature
-    return physical.solubility_ref * jnp.exp(-physical.solubility_enthalpy / GAS_CONSTANT * inverse)
+def solubility(temperature, parameters: dict):
+    """C*(T) [kmol/m^3], van't Hoff, from a crystallizer's `parameters`."""
+    inverse = 1 / temperature - 1 / parameters["solubility_ref_temperature"]
+    return parameters["solubility_ref"] * jnp.exp(-parameters["solubility_enthalpy"] / GAS_CONSTANT * inverse)
 
 
 def _power_of_positive(x, power):
@@ -40,17 +42,15 @@ def _power_of_positive(x, power):
 
 class CrystallizerOutlet(NamedTuple):
     """`api` [kmol/m^3] dissolved at the end; `moments` mu_0 .. mu_4 [m^j/m^3], shape (5,);
-    `impurity_solid`, `degradant_solid` [kmol/m^3] incorporated in the crystals; `temperature` [K]."""
+    `impurity_solid`, `degradant_solid` [kmol/m^3] incorporated in the crystals; `temperature` [K];
+    `crystal_mass` [kg/m^3] of liquor (density x shape factor x mu_3)."""
 
     api: Scalar
     moments: Vector
     impurity_solid: Scalar
     degradant_solid: Scalar
     temperature: Scalar
-
-    def crystal_mass(self, physical):
-        """[kg/m^3] of liquor."""
-        return physical.crystal_density * physical.shape_factor * self.moments[3]
+    crystal_mass: Scalar
 
     def mean_size(self):
         """Volume-weighted mean size D[4,3] = mu_4 / mu_3 [m]."""
@@ -83,66 +83,64 @@ class Crystallizer(eqx.Module):
     impurity_incorporation: bool = eqx.field(static=True)
 
     def rhs(self, s, state, args):
-        profile, duration, physical, impurity0, degradant0 = args
+        profile, duration, p, impurity0, degradant0 = args
         temperature = profile(s)
         api, scaled = state[0], state[1:6]
-        supersaturation = api / solubility(temperature, physical) - 1
-        growth = (arrhenius(physical.growth_rate, physical.growth_activation, temperature,
-                            physical.solubility_ref_temperature)
-                  * _power_of_positive(supersaturation, physical.growth_order))
-        crystal_volume = physical.shape_factor * N_REF * L_REF**3 * scaled[3]  # [m^3/m^3]
-        nucleation = physical.nucleation_rate * _power_of_positive(supersaturation, physical.nucleation_order) * crystal_volume
+        supersaturation = api / solubility(temperature, p) - 1
+        growth = (arrhenius(p["growth_rate"], p["growth_activation"], temperature, p["solubility_ref_temperature"])
+                  * _power_of_positive(supersaturation, p["growth_order"]))
+        crystal_volume = p["shape_factor"] * N_REF * L_REF**3 * scaled[3]  # [m^3/m^3]
+        nucleation = p["nucleation_rate"] * _power_of_positive(supersaturation, p["nucleation_order"]) * crystal_volume
         d_moments = jnp.concatenate([
             jnp.reshape(nucleation / N_REF, (1,)),
             jnp.arange(1, 5) * (growth / L_REF) * scaled[:4],
         ])
         # [kmol/m^3/s] of API moving into the crystals (nuclei have negligible volume).
-        crystallizing = (physical.crystal_density * physical.shape_factor * N_REF * L_REF**3 / self.api_molar_mass
-                         * d_moments[3])
+        crystallizing = p["crystal_density"] * p["shape_factor"] * N_REF * L_REF**3 / self.api_molar_mass * d_moments[3]
         rates = [jnp.reshape(-crystallizing, (1,)), d_moments]
         if self.impurity_incorporation:
             impurity_liquor = impurity0 - state[6]
             degradant_liquor = degradant0 - state[7]
-            rates.append(crystallizing / api * jnp.stack([physical.partition_impurity * impurity_liquor,
-                                                          physical.partition_degradant * degradant_liquor]))
+            rates.append(crystallizing / api * jnp.stack([p["partition_impurity"] * impurity_liquor,
+                                                          p["partition_degradant"] * degradant_liquor]))
         return duration * jnp.concatenate(rates)
 
-    def __call__(self, api, impurity, degradant, profile: AbstractTemperatureProfile, duration, physical,
+    def __call__(self, api, impurity, degradant, profile: AbstractTemperatureProfile, duration, parameters: dict,
                  solver: SolverSettings) -> CrystallizerOutlet:
         """Crystallize from liquor with `api`, `impurity`, `degradant` [kmol/m^3] over `duration`
-        [s] along the temperature `profile`, seeded with `physical.seed_loading` [kg/m^3] of
-        crystals of `physical.seed_size` [m]."""
-        seed_count = physical.seed_loading / (physical.crystal_density * physical.shape_factor
-                                              * physical.seed_size**3)
-        seed_moments = seed_count / N_REF * (physical.seed_size / L_REF) ** jnp.arange(5)
+        [s] along the temperature `profile`, seeded with `seed_loading` [kg/m^3] of crystals of
+        `seed_size` [m] (the crystallizer's `parameters`)."""
+        p = parameters
+        seed_count = p["seed_loading"] / (p["crystal_density"] * p["shape_factor"] * p["seed_size"]**3)
+        seed_moments = seed_count / N_REF * (p["seed_size"] / L_REF) ** jnp.arange(5)
         state = jnp.concatenate([jnp.reshape(api, (1,)), seed_moments])
         if self.impurity_incorporation:
             state = jnp.concatenate([state, jnp.zeros(2)])
-        end = solver.solve(self.rhs, 0.0, 1.0, state, (profile, duration, physical, impurity, degradant),
+        end = solver.solve(self.rhs, 0.0, 1.0, state, (profile, duration, p, impurity, degradant),
                            stiff=False).ys[-1]
         moments = end[1:6] * N_REF * L_REF ** jnp.arange(5)
         solid = end[6:8] if self.impurity_incorporation else jnp.zeros(2)
-        return CrystallizerOutlet(end[0], moments, solid[0], solid[1], profile(1.0))
+        return CrystallizerOutlet(end[0], moments, solid[0], solid[1], profile(1.0),
+                                  p["crystal_density"] * p["shape_factor"] * moments[3])
 
 
 class CoolingCrystallizer(AbstractUnit):
-    """The crystallizer as a unit: the liquor of `inlet` cooled from `hold_temperature` to
-    `final_temperature` [K] at `cooling_rate` [K/min] (linearly, or along a learned `cooling`
-    profile between the same end points)."""
+    """The crystallizer as a unit (type `cooling_crystallizer`): the liquor of `inlet` cooled from
+    the inlet's temperature to `final_temperature` [K] at `cooling_rate` [K/min] (linearly, or
+    along a learned `cooling` profile between the same end points)."""
 
     physics: Crystallizer
     molar_volumes: Vector
     roles: SpeciesRoles = eqx.field(static=True)
     cooling: AbstractTemperatureProfile | None = None
 
-    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings) -> Slurry:
-        physical, roles = inputs.physical, self.roles
+    def __call__(self, inlet: Liquid, parameters: dict, rates: RateParameters, solver: SolverSettings) -> Slurry:
+        roles, final = self.roles, parameters["final_temperature"]
         liquor = inlet.concentrations(self.molar_volumes)
-        profile = (LinearRamp(physical.hold_temperature, physical.final_temperature) if self.cooling is None
-                   else self.cooling)
-        duration = 60.0 * (physical.hold_temperature - physical.final_temperature) / inputs.cpps.cooling_rate
+        profile = LinearRamp(inlet.temperature, final) if self.cooling is None else self.cooling
+        duration = 60.0 * (inlet.temperature - final) / parameters["cooling_rate"]
         crystals = self.physics(liquor[roles.api], liquor[roles.impurity], liquor[roles.degradant], profile,
-                                duration, physical, solver)
+                                duration, parameters, solver)
         return Slurry(liquor, crystals)
 
 
@@ -154,13 +152,14 @@ class EquilibriumIsolation(AbstractUnit):
     molar_volumes: Vector
     roles: SpeciesRoles = eqx.field(static=True)
 
-    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings) -> Slurry:
-        physical = inputs.physical
+    def __call__(self, inlet: Liquid, parameters: dict, rates: RateParameters, solver: SolverSettings) -> Slurry:
+        p = parameters
         liquor = inlet.concentrations(self.molar_volumes)
         api = liquor[self.roles.api]
-        solid = jnp.maximum(api - solubility(physical.final_temperature, physical), 0.0)
-        volume = solid * self.api_molar_mass / physical.crystal_density  # [m^3/m^3]
-        count = volume / (physical.shape_factor * physical.seed_size**3)
-        moments = count * physical.seed_size ** jnp.arange(5)
+        solid = jnp.maximum(api - solubility(p["final_temperature"], p), 0.0)
+        volume = solid * self.api_molar_mass / p["crystal_density"]  # [m^3/m^3]
+        count = volume / (p["shape_factor"] * p["seed_size"]**3)
+        moments = count * p["seed_size"] ** jnp.arange(5)
         zero = jnp.zeros_like(api)
-        return Slurry(liquor, CrystallizerOutlet(api - solid, moments, zero, zero, physical.final_temperature))
+        mass = p["crystal_density"] * p["shape_factor"] * moments[3]
+        return Slurry(liquor, CrystallizerOutlet(api - solid, moments, zero, zero, p["final_temperature"], mass))

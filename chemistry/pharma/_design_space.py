@@ -31,13 +31,10 @@ from snapo_ode import InputError, Result, Settings, check_choice, check_count, c
 from ._chain import PharmaChain
 from ._cqa import meets_specs, spec_margins
 from ._design_edges import acceptable_range, choose_verification_points, probability_se
-from ._parameters import CPPs
-from ._ranges import CPP_NAMES, CPP_RANGES, CQA_NAMES
+from ._parameters import ChainInputs, CPPs
 from ._sensitivities import input_names, jacobians_function, rate_names, shifted_cqas
 from ._surrogate import (
     curvature, grid_inputs, input_offsets, interpolate, log_scales, log_sensitivities, surrogate_cqas)
-
-UNIT_RATES = ("growth_rate", "nucleation_rate", "drying_rate", "solid_degradation_rate")
 
 FIRST_ORDER = ("first order in the log rate constants: ln CQA = ln CQA0 + S d with d = ln k - ln k0; S = d ln CQA / "
                "d ln k from one reverse-mode Jacobian per grid point")
@@ -98,16 +95,17 @@ class DesignSpace(Result):
 
 
 def default_uncertain(chain: PharmaChain) -> list[str]:
-    """The reactions' rate constants (log-multipliers) and the units' rate constants."""
-    return [*rate_names(chain), *UNIT_RATES]
+    """The process file's `uncertain` parameters (the built-in: the reactions' rate constants as
+    log-multipliers and the other units' rate constants), or every reaction's log-multiplier."""
+    return list(chain.process.uncertain) or rate_names(chain)
 
 
 class DesignSpaceSettings(Settings):
     """What `design_space` computes (its arguments but the chain, the CPPs, `uncertain` and the
     mesh), checked when built, before anything is computed: the CLI builds one from its flags."""
 
-    x: str = eqx.field(static=True, default="r1_temperature")
-    y: str = eqx.field(static=True, default="dryer_temperature")
+    x: str | None = eqx.field(static=True, default=None)
+    y: str | None = eqx.field(static=True, default=None)
     points: int = eqx.field(static=True, default=21)
     level: float = eqx.field(static=True, default=0.95)
     sigma: float = eqx.field(static=True, default=0.1)
@@ -118,8 +116,8 @@ class DesignSpaceSettings(Settings):
     curvature_points: int = eqx.field(static=True, default=6)
 
     def __check_init__(self):
-        check_choice("x", self.x, CPP_NAMES)
-        check_choice("y", self.y, tuple(n for n in CPP_NAMES if n != self.x))
+        if self.x is not None and self.x == self.y:
+            raise InputError(f"x = y = {self.x!r}; allowed: two different CPPs.")
         check_count("points", self.points, 3, 201)
         check_count("samples", self.samples, 2, 100_000)
         check_count("surrogate_samples", self.surrogate_samples, 2, 1_000_000)
@@ -132,11 +130,13 @@ class DesignSpaceSettings(Settings):
         check_count("seed", self.seed, 0)
 
 
-def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y: str = "dryer_temperature",
+def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None = None, y: str | None = None,
                  points: int = 21, level: float = 0.95, sigma: float = 0.1, seed: int = 0,
                  surrogate_samples: int = 4096, verify_points: int = 9, samples: int = 1000,
                  uncertain=None, curvature_points: int = 6, mesh=None) -> DesignSpace:
-    """The design space of CPPs `x` and `y` on a `points` x `points` grid over their PARs.
+    """The design space of CPPs `x` and `y` (default: the process's first and last CPP) on a
+    `points` x `points` grid over their PARs, at `cpps` (`CPPs`, the other inputs the process
+    file's; or the `ChainInputs` themselves, used as given).
 
     **Arguments:** `level`: the probability the design space guarantees; `sigma`: the standard
     deviation of each ln k_j; `uncertain`: the names of the uncertain inputs (default
@@ -154,42 +154,47 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
     DesignSpaceSettings(x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
                         surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
                         curvature_points=curvature_points)
-    ranges = {r.name: r for r in CPP_RANGES}
+    names, cqa_names = chain.cpp_names, chain.cqa_names
+    x, y = names[0] if x is None else x, names[-1] if y is None else y
+    check_choice("x", x, names)
+    check_choice("y", y, tuple(n for n in names if n != x))
+    inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
+    cpps, ranges = inputs.cpps, {r.name: r for r in chain.cpp_ranges}
     xs, ys = np.linspace(*ranges[x].par, points), np.linspace(*ranges[y].par, points)
     uncertain = list(default_uncertain(chain) if uncertain is None else uncertain)
     for name in uncertain:
-        check_choice("uncertain", name, tuple(n for n in input_names(chain)[len(CPP_NAMES):]
+        check_choice("uncertain", name, tuple(n for n in input_names(chain)[len(names):]
                                               if n.startswith("log_multiplier[") or not n.endswith("]")))
-    scales = log_scales(chain, cpps, uncertain)
+    scales = log_scales(chain, inputs, uncertain)
     draws = sigma * np.asarray(jax.random.normal(jax.random.key(seed), (max(surrogate_samples, samples), len(uncertain))))
 
     start = time.perf_counter()
     evaluate_many = jacobians_function(chain, True, "reverse", mesh)
-    grid = [grid_inputs(chain, cpps, x, y, vx, vy) for vx in xs for vy in ys]
+    grid = [grid_inputs(inputs, x, y, vx, vy) for vx in xs for vy in ys]
     pairs = [log_sensitivities(result, chain, inputs, uncertain, scales)
              for inputs, result in zip(grid, evaluate_many(grid))]
-    values = np.array([value for value, _ in pairs]).reshape(points, points, len(CQA_NAMES))
-    slopes = np.array([slope for _, slope in pairs]).reshape(points, points, len(CQA_NAMES), len(uncertain))
+    values = np.array([value for value, _ in pairs]).reshape(points, points, len(cqa_names))
+    slopes = np.array([slope for _, slope in pairs]).reshape(points, points, len(cqa_names), len(uncertain))
     hessians = np.zeros(slopes.shape + (len(uncertain),))
     if curvature_points:
         cx, cy = np.linspace(*ranges[x].par, curvature_points), np.linspace(*ranges[y].par, curvature_points)
-        coarse = np.array([[curvature(evaluate_many, chain, grid_inputs(chain, cpps, x, y, vx, vy), uncertain, scales,
+        coarse = np.array([[curvature(evaluate_many, chain, grid_inputs(inputs, x, y, vx, vy), uncertain, scales,
                                       sigma) for vy in cy] for vx in cx])
         hessians = interpolate(cx, cy, coarse, xs, ys)
-    by_cqa = np.zeros((points, points, len(CQA_NAMES)))
+    by_cqa = np.zeros((points, points, len(cqa_names)))
     probability = np.zeros((points, points))
     for i in range(points):
         for j in range(points):
             surrogate = surrogate_cqas(values[i, j], slopes[i, j], hessians[i, j], draws)
-            by_cqa[i, j] = np.mean(np.asarray(spec_margins(surrogate)) >= 0, axis=0)
-            probability[i, j] = float(np.mean(np.asarray(meets_specs(surrogate))))
+            by_cqa[i, j] = np.mean(np.asarray(spec_margins(surrogate, chain.process)) >= 0, axis=0)
+            probability[i, j] = float(np.mean(np.asarray(meets_specs(surrogate, chain.process))))
     surrogate_seconds = time.perf_counter() - start
 
-    operating = {x: float(getattr(cpps, x)), y: float(getattr(cpps, y))}
+    operating = {x: float(cpps[x]), y: float(cpps[y])}
     io, jo = int(np.argmin(np.abs(xs - operating[x]))), int(np.argmin(np.abs(ys - operating[y])))
     chosen = choose_verification_points(probability, (io, jo), verify_points, level)
     start = time.perf_counter()
-    verification = _verify(chain, cpps, x, y, xs, ys, chosen, draws[:samples], (values, slopes, hessians),
+    verification = _verify(chain, inputs, x, y, xs, ys, chosen, draws[:samples], (values, slopes, hessians),
                            probability, uncertain, scales, mesh)
     nor = (ranges[x].nor, ranges[y].nor)
     inside = np.outer((xs >= nor[0][0] - 1e-9) & (xs <= nor[0][1] + 1e-9), (ys >= nor[1][0] - 1e-9) & (ys <= nor[1][1] + 1e-9))
@@ -200,9 +205,9 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
         surrogate=SURROGATE if curvature_points else FIRST_ORDER,
         curvature_points=curvature_points, surrogate_samples=len(draws), seed=seed, operating_point=operating,
         probability=probability.tolist(),
-        probability_by_cqa={cqa: by_cqa[:, :, k].tolist() for k, cqa in enumerate(CQA_NAMES)},
-        nominal_cqas={cqa: values[:, :, k].tolist() for k, cqa in enumerate(CQA_NAMES)},
-        limiting_cqa=[[CQA_NAMES[int(k)] for k in row] for row in np.argmin(by_cqa, axis=-1)],
+        probability_by_cqa={cqa: by_cqa[:, :, k].tolist() for k, cqa in enumerate(cqa_names)},
+        nominal_cqas={cqa: values[:, :, k].tolist() for k, cqa in enumerate(cqa_names)},
+        limiting_cqa=[[cqa_names[int(k)] for k in row] for row in np.argmin(by_cqa, axis=-1)],
         operating_probability=float(probability[io, jo]),
         nor_min_probability=float(probability[inside].min()) if inside.any() else None,
         par_min_probability=float(probability.min()),
@@ -213,10 +218,10 @@ def design_space(chain: PharmaChain, cpps: CPPs, *, x: str = "r1_temperature", y
         seconds={"surrogate": surrogate_seconds, "monte_carlo": time.perf_counter() - start})
 
 
-def _verify(chain, cpps, x, y, xs, ys, chosen, draws, surrogate, probability, uncertain, scales, mesh) -> dict:
+def _verify(chain, inputs, x, y, xs, ys, chosen, draws, surrogate, probability, uncertain, scales, mesh) -> dict:
     """The full model at the `chosen` grid points on `draws` (one vmapped call), against the
     surrogate on the same draws and against the map."""
-    inputs = chain.inputs(cpps)
+    cpps = inputs.cpps
     column = {name: k for k, name in enumerate(input_names(chain))}
     columns = [column[name] for name in uncertain]
     offsets = input_offsets(uncertain, scales, draws)
@@ -224,15 +229,15 @@ def _verify(chain, cpps, x, y, xs, ys, chosen, draws, surrogate, probability, un
     n = len(draws)
     shifts = np.zeros((len(chosen), n, len(column)))
     for p, (i, j) in enumerate(chosen):
-        shifts[p, :, column[x]] = xs[i] - float(getattr(cpps, x))
-        shifts[p, :, column[y]] = ys[j] - float(getattr(cpps, y))
+        shifts[p, :, column[x]] = xs[i] - float(cpps[x])
+        shifts[p, :, column[y]] = ys[j] - float(cpps[y])
         shifts[p][:, columns] += offsets
     full = shifted_cqas(chain, inputs, shifts.reshape(len(chosen) * n, -1), mesh).reshape(len(chosen), n, -1)
     rows = []
     for p, (i, j) in enumerate(chosen):
-        passes = np.asarray(meets_specs(full[p])).astype(bool)
+        passes = np.asarray(meets_specs(full[p], chain.process)).astype(bool)
         same = surrogate_cqas(values[i, j], slopes[i, j], hessians[i, j], draws)
-        surrogate = np.asarray(meets_specs(same)).astype(bool)
+        surrogate = np.asarray(meets_specs(same, chain.process)).astype(bool)
         p_mc, p_same = float(passes.mean()), float(surrogate.mean())
         se = probability_se(int(passes.sum()), n)
         rows.append({"x": float(xs[i]), "y": float(ys[j]), "i": int(i), "j": int(j), "probability_mc": p_mc,

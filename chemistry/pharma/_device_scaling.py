@@ -9,7 +9,7 @@ import numpy as np
 from snapo_ode import compiled_temp_bytes, time_function
 
 from ._chain import PharmaChain
-from ._parameters import make_cpps
+from ._process import make_cpps
 from ._sensitivities import _shifted_cqas, input_names, placed_shifts, shifted_cqas
 
 STRONG_DRAWS, WEAK_DRAWS_PER_DEVICE = 256, 64

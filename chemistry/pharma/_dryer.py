@@ -13,8 +13,10 @@ import jax.numpy as jnp
 
 from snapo_ode import SolverSettings
 
+from chemistry import RateParameters
+
 from ..kinetics._types import Scalar
-from ._parameters import ChainInputs, arrhenius
+from ._parameters import arrhenius
 from ._unit import AbstractUnit, Solids
 
 
@@ -27,34 +29,33 @@ class DryerOutlet(NamedTuple):
 
 
 class Dryer(AbstractUnit):
-    """The drying stage at `dryer_temperature` [K] for `drying_time` [s]; `degradation`: whether
-    the API degrades in the solid."""
+    """The drying stage (type `dryer`) at `temperature` [K] for `time` [s]; `degradation`:
+    whether the API degrades in the solid."""
 
     degradation: bool = eqx.field(static=True)
 
     def rhs(self, s, state, args):
-        temperature, api, physical = args
-        drying = arrhenius(physical.drying_rate, physical.drying_activation, temperature,
-                           physical.dryer_ref_temperature)
+        api, p = args
+        temperature = p["temperature"]
+        drying = arrhenius(p["drying_rate"], p["drying_activation"], temperature, p["reference_temperature"])
         rates = [-drying * state[:1]]
         if self.degradation:
-            degrading = arrhenius(physical.solid_degradation_rate, physical.solid_degradation_activation,
-                                  temperature, physical.dryer_ref_temperature)
+            degrading = arrhenius(p["degradation_rate"], p["degradation_activation"], temperature,
+                                  p["reference_temperature"])
             rates.append(degrading * (api - state[1:2]))
-        return physical.drying_time * jnp.concatenate(rates)
+        return p["time"] * jnp.concatenate(rates)
 
-    def dry(self, solvent, api, temperature, physical, solver: SolverSettings) -> DryerOutlet:
-        """Dry a cake with `solvent` and `api` [kg/kg solids] at `temperature` [K] for
-        `physical.drying_time` [s]."""
+    def dry(self, solvent, api, parameters: dict, solver: SolverSettings) -> DryerOutlet:
+        """Dry a cake with `solvent` and `api` [kg/kg solids] at the dryer's `parameters`
+        (`temperature` [K], `time` [s], ...)."""
         start = jnp.stack([solvent, jnp.zeros_like(api)]) if self.degradation else jnp.reshape(solvent, (1,))
-        end = solver.solve(self.rhs, 0.0, 1.0, start, (temperature, api, physical), stiff=False).ys[-1]
+        end = solver.solve(self.rhs, 0.0, 1.0, start, (api, parameters), stiff=False).ys[-1]
         if self.degradation:
             return DryerOutlet(end[0], api - end[1], end[1])
         return DryerOutlet(end[0], api, jnp.zeros_like(api))
 
-    def __call__(self, inlet: Solids, inputs: ChainInputs, solver: SolverSettings) -> Solids:
+    def __call__(self, inlet: Solids, parameters: dict, rates: RateParameters, solver: SolverSettings) -> Solids:
         solids = inlet.solids
-        dried = self.dry(inlet.solvent / solids, inlet.api / solids, inputs.cpps.dryer_temperature, inputs.physical,
-                         solver)
+        dried = self.dry(inlet.solvent / solids, inlet.api / solids, parameters, solver)
         return inlet._replace(api=solids * dried.api, degradant=inlet.degradant + solids * dried.degradant_formed,
                               solvent=solids * dried.solvent)

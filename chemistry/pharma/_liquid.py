@@ -15,7 +15,6 @@ import jax.numpy as jnp
 from chemistry import GAS_CONSTANT, Mechanism, RateParameters
 from snapo_ode import SolverSettings
 
-from ._parameters import ChainInputs
 from ._profiles import AbstractTemperatureProfile, ConstantTemperature
 from ._unit import AbstractUnit, Liquid
 
@@ -73,26 +72,26 @@ class LiquidBatch(eqx.Module):
 
 
 class SynthesisReactor(AbstractUnit):
-    """R1: the jacketed plug-flow synthesis reactor, residence time `r1_residence_time` [min]
-    with the jacket at `r1_temperature` [K] (or along a learned `jacket` profile)."""
+    """A jacketed plug-flow reactor (type `plug_flow_reactor`; the built-in R1): `residence_time`
+    [min] with the jacket at `temperature` [K] (or along a learned `jacket` profile), `jacket_ua`
+    [W/m^3/K]."""
 
     batch: LiquidBatch
     jacket: AbstractTemperatureProfile | None = None
 
-    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings, *,
+    def __call__(self, inlet: Liquid, parameters: dict, rates: RateParameters, solver: SolverSettings, *,
                  saveat: diffrax.SaveAt | None = None) -> Liquid:
-        cpps = inputs.cpps
-        jacket = ConstantTemperature(cpps.r1_temperature) if self.jacket is None else self.jacket
-        return self.batch.run(inlet, jacket, 60.0 * cpps.r1_residence_time, inputs.rates,
-                              inputs.physical.jacket_ua, solver, saveat=saveat)
+        jacket = ConstantTemperature(parameters["temperature"]) if self.jacket is None else self.jacket
+        return self.batch.run(inlet, jacket, 60.0 * parameters["residence_time"], rates, parameters["jacket_ua"],
+                              solver, saveat=saveat)
 
 
 class HoldReactor(AbstractUnit):
-    """R2: an isothermal hold at `hold_temperature` [K] for `hold_time` [s]."""
+    """An isothermal batch reactor (type `batch_reactor`; the built-in R2, a hold) at
+    `temperature` [K] for `time` [s]."""
 
     batch: LiquidBatch
 
-    def __call__(self, inlet: Liquid, inputs: ChainInputs, solver: SolverSettings) -> Liquid:
-        physical = inputs.physical
-        return self.batch.run(inlet, ConstantTemperature(physical.hold_temperature), physical.hold_time,
-                              inputs.rates, physical.jacket_ua, solver)
+    def __call__(self, inlet: Liquid, parameters: dict, rates: RateParameters, solver: SolverSettings) -> Liquid:
+        return self.batch.run(inlet, ConstantTemperature(parameters["temperature"]), parameters["time"], rates, 0.0,
+                              solver)

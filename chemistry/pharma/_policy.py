@@ -8,13 +8,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from snapo_ode import MLPPolicy, Result, call_checked, field, train
+from snapo_ode import InputError, MLPPolicy, Result, call_checked, field, train
 
 from ._chain import PharmaChain
 from ._cqa import cqa_dict, cqa_vector, meets_specs, spec_margins, spec_penalty
-from ._parameters import CPPs, PhysicalParameters, default_physical_parameters
+from ._parameters import CPPs, PhysicalParameters
 from ._profiles import AbstractTemperatureProfile, NeuralTemperature
-from ._ranges import CPP_RANGES
 
 
 class NeuralCooling(AbstractTemperatureProfile):
@@ -34,20 +33,34 @@ class NeuralCooling(AbstractTemperatureProfile):
 
 
 class Profiles(eqx.Module):
-    """The trainable profiles: `r1_jacket` (`NeuralTemperature` within R1's proven acceptable
-    range) and `cooling` (`NeuralCooling`)."""
+    """The trainable profiles: `r1_jacket` (`NeuralTemperature` within the proven acceptable range
+    of the first plug-flow reactor's temperature) and `cooling` (`NeuralCooling` of the
+    crystallizer)."""
 
     r1_jacket: NeuralTemperature
     cooling: NeuralCooling
 
 
-def make_profiles(physical: PhysicalParameters, *, key, width: int = 16, amplitude: float = 5.0) -> Profiles:
-    r1 = CPP_RANGES[0]
+def make_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, key, width: int = 16,
+                  amplitude: float = 5.0) -> Profiles:
+    """The profiles at their start: the jacket within the PAR of the CPP that sets the first
+    plug-flow reactor's temperature, the cooling between the crystallizer's inlet temperature (the
+    unit before it) and its final temperature.
+
+    **Raises:** `InputError` for a process without a plug-flow reactor whose temperature is a CPP."""
+    units = chain.process.units
+    reactor = next((u.name for u in units if u.type == "plug_flow_reactor"), None)
+    r1 = next((r for r in chain.cpp_ranges if r.target == f"{reactor}.temperature"), None)
+    if r1 is None:
+        raise InputError(f"process {chain.process.name!r}: training needs a plug_flow_reactor whose temperature is a CPP.")
+    crystallizer = next(k for k, u in enumerate(units) if u.type == "cooling_crystallizer")
+    parameters = chain.unit_parameters(chain.inputs(cpps, physical=physical))
+    start = parameters[units[crystallizer - 1].name]["temperature"]
     r1_key, cooling_key = jax.random.split(key)
     jacket = NeuralTemperature(MLPPolicy(1, 1, key=r1_key, width=width, depth=2, action_low=r1.par[0],
                                          action_high=r1.par[1], feature_offset=0.5, feature_scale=0.5))
     cooling = NeuralCooling(MLPPolicy(1, 1, key=cooling_key, width=width, depth=2, feature_offset=0.5,
-                                      feature_scale=0.5), physical.hold_temperature, physical.final_temperature,
+                                      feature_scale=0.5), start, parameters[units[crystallizer].name]["final_temperature"],
                             amplitude)
     return Profiles(jacket, cooling)
 
@@ -59,8 +72,8 @@ def profile_objective(chain: PharmaChain, cpps: CPPs, physical: PhysicalParamete
     def loss(profiles: Profiles):
         result = chain.simulate(chain.inputs(cpps, physical=physical), r1_jacket=profiles.r1_jacket,
                                 cooling=profiles.cooling)
-        cqas = cqa_vector(result)
-        penalty = spec_penalty(cqas, sharpness)
+        cqas = cqa_vector(result, chain.process)
+        penalty = spec_penalty(cqas, sharpness, chain.process)
         return -result.api_yield / 100 + penalty_weight * penalty, {"value": result.api_yield, "penalty": penalty}
 
     return loss
@@ -83,7 +96,7 @@ def constant_profiles(profiles: Profiles) -> Profiles:
 def _simulate_with(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, profiles: Profiles):
     result = chain.simulate(chain.inputs(cpps, physical=physical), r1_jacket=profiles.r1_jacket,
                             cooling=profiles.cooling)
-    return result.api_yield, cqa_vector(result)
+    return result.api_yield, cqa_vector(result, chain.process)
 
 
 def evaluate_hard(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, profiles: Profiles, *,
@@ -92,10 +105,11 @@ def evaluate_hard(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, 
     the training saw; `gap` = yield - smooth objective (the penalty's share)."""
     api_yield, cqas = call_checked(_simulate_with, chain, cpps, physical, profiles,
                                    what="the chain with the profiles")
-    smooth = float(api_yield) - 100 * penalty_weight * float(spec_penalty(cqas, sharpness))
-    return {"api_yield": float(api_yield), "cqas": cqa_dict(cqas),
-            "meets_all_specs": bool(meets_specs(cqas)),
-            "spec_margins": dict(zip(cqa_dict(cqas), map(float, spec_margins(cqas)), strict=True)),
+    process = chain.process
+    smooth = float(api_yield) - 100 * penalty_weight * float(spec_penalty(cqas, sharpness, process))
+    return {"api_yield": float(api_yield), "cqas": cqa_dict(cqas, process),
+            "meets_all_specs": bool(meets_specs(cqas, process)),
+            "spec_margins": dict(zip(cqa_dict(cqas, process), map(float, spec_margins(cqas, process)), strict=True)),
             "smooth_objective": smooth, "gap": float(api_yield) - smooth}
 
 
@@ -131,8 +145,8 @@ def train_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters 
                    progress: bool = True, checkpoint_path=None, resume: bool = False) -> ProfileStudy:
     """Train both profiles for yield with the specs as smooth penalties; evaluate the baseline and
     the trained profiles hard."""
-    physical = default_physical_parameters() if physical is None else physical
-    profiles = make_profiles(physical, key=jax.random.key(seed))
+    physical = chain.physical() if physical is None else physical
+    profiles = make_profiles(chain, cpps, physical, key=jax.random.key(seed))
     loss = profile_objective(chain, cpps, physical, penalty_weight=penalty_weight, sharpness=sharpness)
     trained = train(loss, profiles, steps=steps, learning_rate=learning_rate, progress=progress,
                     description="pharma profiles", checkpoint_path=checkpoint_path, checkpoint_every=10,

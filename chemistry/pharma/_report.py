@@ -11,10 +11,9 @@ import numpy as np
 import snapo_ode
 from snapo_ode import Report
 
-from ._chain import DEFAULT_MECHANISM, PharmaChain
+from ._chain import PharmaChain
 from ._design_space import design_space
-from ._parameters import PHYSICAL_NAMES, CPPs
-from ._ranges import CPP_NAMES, CPP_RANGES, CQA_NAMES, CQA_SPECS
+from ._parameters import ChainInputs, CPPs
 from ._study import MAX_SOLVER_ERROR, REFERENCE, sensitivity_study
 from ._verification import cantera_check, stiffness_ratio
 
@@ -30,18 +29,18 @@ def _margin(value: float, low: float, high: float) -> tuple[float, float]:
     return min((d, limit) for d, limit in distances if np.isfinite(limit))
 
 
-def summary(study: dict, cpps: dict) -> dict:
+def summary(study: dict, cpps: dict, chain: PharmaChain) -> dict:
     """What a reader needs first: each CQA's margin to its specification, and how far each CPP
     can move each CQA over its PAR relative to that margin (`impact`, classed by
     IMPACT_THRESHOLDS)."""
     cqas, impact, counts = {}, {}, {"high": 0, "medium": 0, "low": 0}
-    for spec in CQA_SPECS:
+    for spec in chain.cqa_specs:
         value = study["cqas"][spec.name]
         margin, limit = _margin(value, spec.low, spec.high)
         cqas[spec.name] = {"value": value, "margin": margin, "limit": limit, "relative_margin": margin / abs(limit),
                            "meets": bool(margin >= 0)}
         impact[spec.name] = {}
-        for r in CPP_RANGES:
+        for r in chain.cpp_ranges:
             slope = study["matrix"][spec.name][r.name]
             change = max(abs(slope * (end - cpps[r.name])) for end in r.par)
             fraction = change / margin if margin > 0 else None
@@ -54,22 +53,26 @@ def summary(study: dict, cpps: dict) -> dict:
             "impact": impact, "impact_counts": counts, "impact_thresholds": IMPACT_THRESHOLDS}
 
 
-def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 21, verify_points: int = 9, samples: int = 1000,
-                 surrogate_samples: int = 4096, curvature_points: int = 6, level: float = 0.95, sigma: float = 0.1,
-                 x: str = "r1_temperature", y: str = "dryer_temperature", seed: int = 0, repeats: int = 5,
-                 mechanism_path=DEFAULT_MECHANISM, max_solver_error: float = MAX_SOLVER_ERROR,
-                 check_warnings=None, mesh=None) -> dict:
-    """Every number of the report, as the JSON document's data (see docs/pharma.md); solver
+def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 21, verify_points: int = 9,
+                 samples: int = 1000, surrogate_samples: int = 4096, curvature_points: int = 6, level: float = 0.95,
+                 sigma: float = 0.1, x: str | None = None, y: str | None = None, seed: int = 0, repeats: int = 5,
+                 mechanism_path=None, max_solver_error: float = MAX_SOLVER_ERROR, check_warnings=None,
+                 mesh=None) -> dict:
+    """Every number of the report, as the JSON document's data (see docs/pharma.md), at `cpps`
+    (`CPPs`, the other inputs the process file's; or the `ChainInputs` themselves); solver
     errors against the tight reference above `max_solver_error` are warnings in it, handed to
-    `check_warnings(warnings)` (which may raise) before the design space is computed."""
+    `check_warnings(warnings)` (which may raise) before the design space is computed. R1 is
+    checked against Cantera on `mechanism_path` (default: the process's mechanism)."""
     start = time.perf_counter()
-    inputs = chain.inputs(cpps)
-    study = sensitivity_study(chain, cpps, repeats=repeats, max_solver_error=max_solver_error).to_json()
+    inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
+    cpps = inputs.cpps
+    mechanism_path = chain.process.mechanism if mechanism_path is None else mechanism_path
+    study = sensitivity_study(chain, inputs, repeats=repeats, max_solver_error=max_solver_error).to_json()
     if check_warnings is not None:
         check_warnings(study["warnings"])
     study_seconds = time.perf_counter() - start
     cantera = cantera_check(chain.with_solver(REFERENCE), cpps, inputs.physical, mechanism_path)
-    space = design_space(chain, cpps, x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
+    space = design_space(chain, inputs, x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
                          surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
                          curvature_points=curvature_points, mesh=mesh).to_json()
     space.update(grid_size=points, verification_count=len(space["verification"]["points"]),
@@ -77,11 +80,11 @@ def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 21, verify_poi
     values = study["cpps"]
     return {
         "operating_point": {r.name: {"unit": r.unit, "value": values[r.name], "nominal": r.nominal, "nor": list(r.nor),
-                                     "par": list(r.par), "description": r.description} for r in CPP_RANGES},
+                                     "par": list(r.par), "description": r.description} for r in chain.cpp_ranges},
         "specifications": {s.name: {"unit": s.unit, "low": None if np.isinf(s.low) else s.low,
                                     "high": None if np.isinf(s.high) else s.high, "spec": s.text(),
-                                    "description": s.description} for s in CQA_SPECS},
-        "summary": summary(study, values),
+                                    "description": s.description} for s in chain.cqa_specs},
+        "summary": summary(study, values, chain),
         "sensitivities": study,
         "design_space": space,
         "verification": {
@@ -105,13 +108,14 @@ def build_report(chain: PharmaChain, cpps: CPPs, *, points: int = 21, verify_poi
     }
 
 
-def report_provenance(chain: PharmaChain, cpps: CPPs, *, mechanism_path=DEFAULT_MECHANISM, command=None) -> dict:
-    """`snapo_ode.provenance` with the chain's inputs: the mechanism file, the CPPs, the physical
-    parameters, the solver and the effects."""
-    physical = chain.inputs(cpps).physical
+def report_provenance(chain: PharmaChain, cpps: CPPs | ChainInputs, *, mechanism_path=None, command=None) -> dict:
+    """`snapo_ode.provenance` with the chain's inputs: the process file and its mechanism file, the
+    CPPs, the physical parameters, the solver and the effects."""
+    inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
+    mechanism = chain.process.mechanism if mechanism_path is None else mechanism_path
     return snapo_ode.provenance({
-        "mechanism": pathlib.Path(mechanism_path), "cpps": cpps.as_dict(),
-        "physical_parameters": {name: float(getattr(physical, name)) for name in PHYSICAL_NAMES},
+        "process": pathlib.Path(chain.process.path), "mechanism": pathlib.Path(mechanism), "cpps": inputs.cpps.as_dict(),
+        "physical_parameters": inputs.physical.as_dict(),
         "solver": chain.solver.as_dict(), "effects": sorted(chain.scene.active)}, packages=PACKAGES, command=command)
 
 
@@ -119,8 +123,9 @@ def sensitivity_rows(data: dict) -> list[list]:
     """sensitivities.csv: one row per CQA and input (CPPs and parameters)."""
     study = data["sensitivities"]
     rows = [["cqa", "input", "kind", "sensitivity", "normalized"]]
-    for cqa in CQA_NAMES:
-        rows += [[cqa, cpp, "cpp", study["matrix"][cqa][cpp], study["normalized"][cqa][cpp]] for cpp in CPP_NAMES]
+    for cqa in data["specifications"]:
+        rows += [[cqa, cpp, "cpp", study["matrix"][cqa][cpp], study["normalized"][cqa][cpp]]
+                 for cpp in data["operating_point"]]
         rows += [[cqa, name, "parameter", value, study["parameter_sensitivities_normalized"][cqa][name]]
                  for name, value in study["parameter_sensitivities"][cqa].items()]
     return rows
@@ -129,11 +134,12 @@ def sensitivity_rows(data: dict) -> list[list]:
 def design_space_rows(data: dict) -> list[list]:
     """design_space.csv: the map, one row per grid point."""
     space = data["design_space"]
-    rows = [[space["x"], space["y"], "probability", *(f"probability_{c}" for c in CQA_NAMES), "limiting_cqa"]]
+    cqa_names = list(data["specifications"])
+    rows = [[space["x"], space["y"], "probability", *(f"probability_{c}" for c in cqa_names), "limiting_cqa"]]
     for i, vx in enumerate(space["x_values"]):
         for j, vy in enumerate(space["y_values"]):
             rows.append([vx, vy, space["probability"][i][j],
-                         *(space["probability_by_cqa"][c][i][j] for c in CQA_NAMES), space["limiting_cqa"][i][j]])
+                         *(space["probability_by_cqa"][c][i][j] for c in cqa_names), space["limiting_cqa"][i][j]])
     return rows
 
 

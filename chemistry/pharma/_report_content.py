@@ -4,7 +4,6 @@ number is a `Value` (a path into the report's JSON); the core renders and prints
 
 from snapo_ode import Bullets, Figure, Heading, Highlights, Paragraph, Section, Table, Value
 
-from ._ranges import CPP_NAMES, CQA_NAMES
 from ._report_figures import design_space_figure, profile_figure, tornado_figure
 from ._study import REFERENCE_METHODS
 
@@ -16,8 +15,14 @@ def _range(path, fmt=".5g") -> tuple:
     return (V((*path, 0), fmt), "\u00a0\u2013\u00a0", V((*path, 1), fmt))
 
 
+def _names(data: dict) -> tuple[list, list]:
+    """The process's CPP and CQA names, in its order (the data's keys)."""
+    return list(data["operating_point"]), list(data["specifications"])
+
+
 def executive_summary(data: dict) -> Section:
     space, summary = data["design_space"], data["summary"]
+    cpp_names, cqa_names = _names(data)
     x, y = space["x"], space["y"]
     ds = ("design_space",)
     findings = [Paragraph((
@@ -45,13 +50,13 @@ def executive_summary(data: dict) -> Section:
     ))
     impact_rows = tuple((cqa, *((V(("summary", "impact", cqa, cpp, "grade")), " (",
                                  V(("summary", "impact", cqa, cpp, "fraction_of_margin"), ".2f"), ")")
-                                for cpp in CPP_NAMES)) for cqa in CQA_NAMES)
-    impact = Table(("CQA", *CPP_NAMES), impact_rows, (
+                                for cpp in cpp_names)) for cqa in cqa_names)
+    impact = Table(("CQA", *cpp_names), impact_rows, (
         "Which CPPs matter for which CQA: the largest linearised change of the CQA over the CPP's PAR, as a "
         "fraction of the CQA's margin to its specification (high from ", V(("summary", "impact_thresholds", "high"), "g"),
         ", medium from ", V(("summary", "impact_thresholds", "medium"), "g"), ")"))
     ranges = []
-    for name in CPP_NAMES:
+    for name in cpp_names:
         path = ("operating_point", name)
         mapped = name in (x, y)
         edges = ("design_space", "edges", name)
@@ -70,12 +75,13 @@ def executive_summary(data: dict) -> Section:
 
 
 def process_section(data: dict) -> Section:
+    cpp_names, cqa_names = _names(data)
     cpps = tuple((name, V(("operating_point", name, "unit")), V(("operating_point", name, "value"), ".6g"),
                   V(("operating_point", name, "nominal"), ".6g"), _range(("operating_point", name, "nor"), ".6g"),
                   _range(("operating_point", name, "par"), ".6g"), V(("operating_point", name, "description")))
-                 for name in CPP_NAMES)
+                 for name in cpp_names)
     specs = tuple((name, V(("specifications", name, "unit")), V(("specifications", name, "spec")),
-                   V(("specifications", name, "description"))) for name in CQA_NAMES)
+                   V(("specifications", name, "description"))) for name in cqa_names)
     return Section("Process parameters and specifications", (
         Table(("CPP", "unit", "value", "nominal", "NOR", "PAR", "description"), cpps,
               ("Critical process parameters (CPPs) at the operating point",)),
@@ -83,18 +89,21 @@ def process_section(data: dict) -> Section:
 
 
 def nominal_section(data: dict) -> Section:
+    _, cqa_names = _names(data)
     rows = tuple((name, V(("summary", "cqas", name, "value"), ".6g"), V(("specifications", name, "spec")),
                   V(("summary", "cqas", name, "margin"), ".4g"), V(("summary", "cqas", name, "relative_margin"), ".1%"),
-                  V(("summary", "cqas", name, "meets"))) for name in CQA_NAMES)
+                  V(("summary", "cqas", name, "meets"))) for name in cqa_names)
     return Section("Nominal CQAs", (Table(("CQA", "value", "specification", "margin to the limit",
                                            "margin, of the limit", "meets"), rows,
                                           ("The CQAs at the operating point, nominal kinetics",)),))
 
 
 def sensitivity_section(data: dict) -> Section:
+    cpp_names, cqa_names = _names(data)
+
     def matrix(key, caption):
-        return Table(("CQA", *CPP_NAMES), tuple((cqa, *(V(("sensitivities", key, cqa, cpp), ".5g") for cpp in CPP_NAMES))
-                                                for cqa in CQA_NAMES), caption)
+        return Table(("CQA", *cpp_names), tuple((cqa, *(V(("sensitivities", key, cqa, cpp), ".5g") for cpp in cpp_names))
+                                                for cqa in cqa_names), caption)
 
     return Section("Sensitivities", (
         matrix("matrix", ("Absolute sensitivities d CQA / d CPP (CQA units per CPP unit), from ",

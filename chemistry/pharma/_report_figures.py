@@ -4,9 +4,9 @@ the probability along the lines through the operating point."""
 
 import numpy as np
 
-from ._ranges import CPP_NAMES, CQA_NAMES
 
-CQA_COLOURS = dict(zip(CQA_NAMES, ("#d62728", "#9467bd", "#ff7f0e", "#17becf", "#8c564b"), strict=True))
+CQA_COLOURS = ("#d62728", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22")
+"""The colour of each CQA's own contour, in the process's order (cycled past eight)."""
 
 
 def tornado_figure(doc: dict):
@@ -14,14 +14,17 @@ def tornado_figure(doc: dict):
     import matplotlib.pyplot as plt
 
     study, cpps, specs = doc["sensitivities"], doc["operating_point"], doc["specifications"]
-    figure, grid = plt.subplots(3, 2, figsize=(9.0, 5.6))
+    cpp_names = list(cpps)
+    rows = (len(specs) + 2) // 2  # a panel per CQA and one for the legend
+    figure, grid = plt.subplots(rows, 2, figsize=(9.0, 1.9 * rows))
     axes = grid.ravel()
-    axes[-1].axis("off")
-    for axis, cqa in zip(axes, CQA_NAMES):
-        lows = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][0] - cpps[n]["value"]) for n in CPP_NAMES])
-        highs = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][1] - cpps[n]["value"]) for n in CPP_NAMES])
+    for axis in axes[len(specs):]:
+        axis.axis("off")
+    for axis, cqa in zip(axes, specs):
+        lows = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][0] - cpps[n]["value"]) for n in cpp_names])
+        highs = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][1] - cpps[n]["value"]) for n in cpp_names])
         order = np.argsort(np.abs(highs - lows))
-        names = [CPP_NAMES[i] for i in order]
+        names = [cpp_names[i] for i in order]
         axis.barh(names, lows[order], color="#4c78a8", label="CPP at the low end of its PAR")
         axis.barh(names, highs[order], color="#f58518", label="CPP at the high end of its PAR")
         axis.axvline(0, color="k", lw=0.8)
@@ -48,11 +51,11 @@ def design_space_figure(doc: dict):
     # x is the CPP of the first index: plot it on the horizontal axis.
     mesh = axis.contourf(xs, ys, probability.T, levels=np.linspace(0, 1, 21), cmap="RdYlGn", vmin=0, vmax=1)
     handles = []
-    for cqa in CQA_NAMES:
-        by_cqa = np.array(space["probability_by_cqa"][cqa]).T
+    for k, cqa in enumerate(doc["specifications"]):
+        by_cqa, colour = np.array(space["probability_by_cqa"][cqa]).T, CQA_COLOURS[k % len(CQA_COLOURS)]
         if by_cqa.min() < level < by_cqa.max():
-            axis.contour(xs, ys, by_cqa, levels=[level], colors=[CQA_COLOURS[cqa]], linewidths=1.2, linestyles="--")
-            handles.append(Line2D([], [], color=CQA_COLOURS[cqa], ls="--", label=f"P({cqa} in spec) = {level:g}"))
+            axis.contour(xs, ys, by_cqa, levels=[level], colors=[colour], linewidths=1.2, linestyles="--")
+            handles.append(Line2D([], [], color=colour, ls="--", label=f"P({cqa} in spec) = {level:g}"))
     if probability.min() < level < probability.max():
         axis.contour(xs, ys, probability.T, levels=[level], colors="k", linewidths=2.2)
     handles.insert(0, Line2D([], [], color="k", lw=2.2, label=f"P(all specs) = {level:g}: edge of the design space"))

@@ -16,18 +16,18 @@ from snapo_ode import (
 
 from ._chain import PharmaChain
 from ._cqa import cqa_vector
-from ._parameters import PHYSICAL_NAMES, ChainInputs, CPPs
-from ._ranges import CPP_NAMES, CQA_NAMES
+from ._parameters import ChainInputs, CPPs
 
 RATE_FIELDS = ("log_multiplier", "temperature_exponent", "activation_temperature")
 
 
 def input_names(chain: PharmaChain) -> list[str]:
     """Names of the flattened `ChainInputs`, in their flat order: the CPPs, then each rate field of
-    each reaction ("log_multiplier[A + B => P]"), then the physical parameters."""
+    each reaction ("log_multiplier[A + B => P]"), then the physical parameters ("feed.A",
+    "crystallizer.growth_rate")."""
     equations = chain.mechanism.reaction_equations
     rates = [f"{field}[{equation}]" for field in RATE_FIELDS for equation in equations]
-    return [*CPP_NAMES, *rates, *PHYSICAL_NAMES]
+    return [*chain.cpp_names, *rates, *chain.process.physical_defaults()]
 
 
 def rate_names(chain: PharmaChain, field: str = "log_multiplier") -> list[str]:
@@ -37,14 +37,14 @@ def rate_names(chain: PharmaChain, field: str = "log_multiplier") -> list[str]:
 
 def parameter_names(chain: PharmaChain) -> list[str]:
     """Every input but the CPPs: the kinetic and physical parameters."""
-    return input_names(chain)[len(CPP_NAMES):]
+    return input_names(chain)[len(chain.cpp_names):]
 
 
 def cqa_function(chain: PharmaChain):
-    """inputs (`ChainInputs`) -> the CQA vector, shape (5,)."""
+    """inputs (`ChainInputs`) -> the CQA vector of the chain's process, shape (n_cqas,)."""
 
     def cqas(inputs: ChainInputs):
-        return cqa_vector(chain.simulate(inputs))
+        return cqa_vector(chain.simulate(inputs), chain.process)
 
     return cqas
 
@@ -53,7 +53,7 @@ def cpp_only(chain: PharmaChain, inputs: ChainInputs):
     """cpps -> the CQA vector, the parameters held at `inputs`."""
 
     def cqas(cpps: CPPs):
-        return cqa_vector(chain.simulate(inputs._replace(cpps=cpps)))
+        return cqa_vector(chain.simulate(inputs._replace(cpps=cpps)), chain.process)
 
     return cqas
 
@@ -63,7 +63,7 @@ def _values_and_jacobian(chain: PharmaChain, inputs: ChainInputs, with_parameter
     if with_parameters:
         result = jacobian(cqa_function(chain), inputs, mode=mode, names=input_names(chain))
     else:
-        result = jacobian(cpp_only(chain, inputs), inputs.cpps, mode=mode, names=CPP_NAMES)
+        result = jacobian(cpp_only(chain, inputs), inputs.cpps, mode=mode, names=chain.cpp_names)
     return result.values, result.matrix
 
 
@@ -129,8 +129,9 @@ def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mes
     return evaluate_many
 
 
-def resolve_mode(mode: str, n_inputs: int) -> str:
-    return choose_mode(len(CQA_NAMES), n_inputs) if mode == "auto" else mode
+def resolve_mode(mode: str, n_inputs: int, n_outputs: int = 5) -> str:
+    """`mode`, or for "auto" the cheaper for a Jacobian of `n_outputs` x `n_inputs`."""
+    return choose_mode(n_outputs, n_inputs) if mode == "auto" else mode
 
 
 def named_jacobian(chain: PharmaChain, inputs: ChainInputs, values, matrix, mode: str) -> Jacobian:
@@ -138,7 +139,7 @@ def named_jacobian(chain: PharmaChain, inputs: ChainInputs, values, matrix, mode
     on the host (NumPy), so that picking columns compiles nothing (JAX's gathers did, at the end
     of a cold `snapo pharma sensitivities`: docs/pharma.md)."""
     _, rebuild = flatten_inputs(inputs)
-    return Jacobian(np.asarray(values), np.asarray(matrix), mode, rebuild, tuple(input_names(chain)), CQA_NAMES)
+    return Jacobian(np.asarray(values), np.asarray(matrix), mode, rebuild, tuple(input_names(chain)), chain.cqa_names)
 
 
 def normalized(jac: Jacobian, inputs: ChainInputs, names) -> np.ndarray:

@@ -14,8 +14,8 @@ from snapo_ode import (
     flatten_inputs, prefetch_checked, time_function)
 
 from ._chain import CHAIN_SOLVER, PharmaChain, chain_method
-from ._parameters import ChainInputs, CPPs, outside_par
-from ._ranges import CPP_NAMES, CQA_NAMES
+from ._parameters import ChainInputs, CPPs
+from ._process import outside_par
 from ._sensitivities import (
     cqa_function, input_names, input_scales, jacobian_function, named_jacobian, normalized, parameter_names,
     prefetch_jacobian, resolve_mode)
@@ -46,10 +46,10 @@ def other_mode(mode: str) -> str:
     return "forward" if mode == "reverse" else "reverse"
 
 
-def by_name(matrix, columns) -> dict:
-    """cqa -> column -> value."""
+def by_name(matrix, rows, columns) -> dict:
+    """row (a CQA) -> column -> value."""
     return {cqa: {name: float(value) for name, value in zip(columns, row, strict=True)}
-            for cqa, row in zip(CQA_NAMES, np.asarray(matrix), strict=True)}
+            for cqa, row in zip(rows, np.asarray(matrix), strict=True)}
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -93,17 +93,18 @@ class SensitivityStudy(Result):
         """The 5x4 matrix, normalised, with the checks."""
         lines = [f"CQA sensitivities to CPPs ({self.mode} mode, {self.passes} passes): "
                  f"{1e3 * self.seconds_median:.1f} ms median, {self.compile_seconds:.1f} s compile"]
-        lines.append(f"{'CQA':<20}{'value':>12}  " + "".join(f"{n:>20}" for n in CPP_NAMES))
-        for cqa in CQA_NAMES:
-            row = "".join(f"{self.normalized[cqa][n]:>20.4g}" for n in CPP_NAMES)
+        cpps = list(self.cpps)
+        lines.append(f"{'CQA':<20}{'value':>12}  " + "".join(f"{n:>20}" for n in cpps))
+        for cqa in self.cqas:
+            row = "".join(f"{self.normalized[cqa][n]:>20.4g}" for n in cpps)
             lines.append(f"{cqa:<20}{self.cqas[cqa]:>12.5g}  {row}")
         lines.append("(normalised: d ln CQA / d ln CPP)")
         if self.max_rel_diff_fd is not None:
-            lines.append(f"max relative difference to central differences: {self.max_rel_diff_fd:.1e} (20 CPP), "
+            lines.append(f"max relative difference to central differences: {self.max_rel_diff_fd:.1e} (CQA x CPP), "
                          f"{self.max_rel_diff_fd_parameters:.1e} (all)")
         if self.reference_rel_error is not None:
             lines.append(f"relative error against the rtol {self.reference_solver['rtol']:g} reference: "
-                         f"{self.reference_rel_error:.1e} (20 CPP), {self.reference_rel_error_parameters:.1e} (all)")
+                         f"{self.reference_rel_error:.1e} (CQA x CPP), {self.reference_rel_error_parameters:.1e} (all)")
         lines.extend(f"warning: {w}" for w in self.warnings)
         return "\n".join(lines)
 
@@ -112,7 +113,7 @@ def sensitivities(chain: PharmaChain, inputs: ChainInputs, *, mode: str = "auto"
                   ) -> tuple[Jacobian, object]:
     """The named Jacobian of the CQAs over every input (`mode` "auto" picks reverse for 5
     outputs and ~50 inputs: 5 passes) and its `snapo_ode.Timing`."""
-    mode = resolve_mode(mode, len(input_names(chain)))
+    mode = resolve_mode(mode, len(input_names(chain)), len(chain.cqa_names))
     timing, (values, matrix) = time_function(jacobian_function(chain, True, mode), inputs, repeats=repeats)
     return named_jacobian(chain, inputs, values, matrix, mode), timing
 
@@ -130,12 +131,12 @@ def solver_error_warnings(checks: dict, rtol: float, threshold: float = MAX_SOLV
             if checks.get(key) is not None and checks[key] > threshold]
 
 
-def _cqa_shape(inputs: ChainInputs):
-    """A stand-in of `cqa_function` with its output shape, (5,): `compare_with_bumps`, given the
-    adjoint and the bumped functions, reads only that, through `equinox.filter_eval_shape`, which
-    on the chain itself would trace every unit's solve, in every process (docs/pharma.md,
+def _cqa_shape(n_cqas: int):
+    """A stand-in of `cqa_function` with its output shape, (n_cqas,): `compare_with_bumps`, given
+    the adjoint and the bumped functions, reads only that, through `equinox.filter_eval_shape`,
+    which on the chain itself would trace every unit's solve, in every process (docs/pharma.md,
     Measurements behind the design)."""
-    return jnp.zeros(len(CQA_NAMES))
+    return lambda inputs: jnp.zeros(n_cqas)
 
 
 def _bumped_cqas(bumped_chain: PharmaChain, inputs: ChainInputs, args, steps):
@@ -185,10 +186,11 @@ def _reference_jacobian(chain: PharmaChain, inputs: ChainInputs, reference, mode
     return named_jacobian(chain, inputs, values, matrix, other_mode(mode))
 
 
-def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", repeats: int = 5,
+def sensitivity_study(chain: PharmaChain, cpps: CPPs | ChainInputs, *, mode: str = "auto", repeats: int = 5,
                       check_bumps: bool = True, reference=REFERENCE,
                       max_solver_error: float = MAX_SOLVER_ERROR) -> SensitivityStudy:
-    """Every CQA's sensitivity to every CPP and parameter at `cpps`, timed, next to Richardson
+    """Every CQA's sensitivity to every CPP and parameter at `cpps` (`CPPs`, the other inputs the
+    process file's; or the `ChainInputs` themselves, used as given), timed, next to Richardson
     central differences (at `BUMP_SOLVER`'s tolerances) and the Jacobian at `reference`'s
     tolerances by the other mode (`other_mode`; `reference` None: skipped). Errors against the
     reference above `max_solver_error` (relative) are warnings in the result
@@ -198,8 +200,9 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     (ready before the adjoint, whose executable takes the longest to read: running the reference
     meanwhile hides part of that wait; docs/pharma.md, Measurements behind the design), else last
     (a helper process traces and compiles it)."""
-    inputs = chain.inputs(cpps)
-    mode = resolve_mode(mode, len(input_names(chain)))
+    inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
+    cpps, cpp_names, cqa_names = inputs.cpps, chain.cpp_names, chain.cqa_names
+    mode = resolve_mode(mode, len(input_names(chain)), len(cqa_names))
     scales = input_scales(inputs)
     checks = {}
     bumped_chain = chain.with_solver(BUMP_SOLVER)
@@ -208,13 +211,13 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     if check_bumps:
         adjoint = jacobian_function(chain, True, mode)
         comparison = compare_with_bumps(
-            _cqa_shape, inputs, adjoint_fn=adjoint, bump_fn=cqa_function(bumped_chain),
+            _cqa_shape(len(cqa_names)), inputs, adjoint_fn=adjoint, bump_fn=cqa_function(bumped_chain),
             relative_step=BUMP_RELATIVE_STEP, step_floor=0.0, richardson=True, scales=scales, zero=1e-12,
             repeats=repeats, bump_repeats=0, call=functools.partial(_call_bumps, adjoint, bumped_chain))
         jac = named_jacobian(chain, inputs, comparison.value, comparison.adjoint, mode)
         seconds, compile_seconds = comparison.adjoint_seconds, comparison.adjoint_compile_seconds
         bumped = named_jacobian(chain, inputs, comparison.value, comparison.bumped, mode)
-        checks.update(max_rel_diff_fd=agreement(jac.columns(CPP_NAMES), bumped.columns(CPP_NAMES)).max_rel_diff,
+        checks.update(max_rel_diff_fd=agreement(jac.columns(cpp_names), bumped.columns(cpp_names)).max_rel_diff,
                       max_rel_diff_fd_parameters=comparison.agreement.max_rel_diff,
                       fd_at_structural_zeros=comparison.agreement.at_structural_zeros,
                       fd_solver=BUMP_SOLVER.as_dict())
@@ -224,18 +227,18 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs, *, mode: str = "auto", rep
     if reference is not None:
         tight = _reference_jacobian(chain, inputs, reference, mode) if tight is None else tight
         values, tight_values = np.asarray(jac.values), np.asarray(tight.values)
-        checks.update(reference_rel_error=agreement(jac.columns(CPP_NAMES), tight.columns(CPP_NAMES)).max_rel_diff,
+        checks.update(reference_rel_error=agreement(jac.columns(cpp_names), tight.columns(cpp_names)).max_rel_diff,
                       reference_rel_error_parameters=agreement(jac.matrix, tight.matrix, scales=scales).max_rel_diff,
                       reference_cqa_rel_error=float(np.max(np.abs(values - tight_values) / np.abs(tight_values))),
                       reference_solver=reference.replace(differentiation=other_mode(mode)).as_dict())
     parameters = parameter_names(chain)
     return SensitivityStudy(
         cpps=cpps.as_dict(),
-        warnings=outside_par(cpps) + solver_error_warnings(checks, chain.solver.rtol, max_solver_error),
-        cqas={name: float(v) for name, v in zip(CQA_NAMES, np.asarray(jac.values), strict=True)},
-        matrix=jac.named(CPP_NAMES), normalized=by_name(normalized(jac, inputs, CPP_NAMES), CPP_NAMES),
+        warnings=outside_par(cpps, chain.process) + solver_error_warnings(checks, chain.solver.rtol, max_solver_error),
+        cqas={name: float(v) for name, v in zip(cqa_names, np.asarray(jac.values), strict=True)},
+        matrix=jac.named(cpp_names), normalized=by_name(normalized(jac, inputs, cpp_names), cqa_names, cpp_names),
         parameter_sensitivities=jac.named(parameters),
-        parameter_sensitivities_normalized=by_name(normalized(jac, inputs, parameters), parameters),
-        mode=mode, passes=len(CQA_NAMES) if mode == "reverse" else len(jac.input_names),
+        parameter_sensitivities_normalized=by_name(normalized(jac, inputs, parameters), cqa_names, parameters),
+        mode=mode, passes=len(cqa_names) if mode == "reverse" else len(jac.input_names),
         seconds_median=seconds, compile_seconds=compile_seconds, solver=chain.solver.as_dict(),
         effects=sorted(chain.scene.active), jacobian=jac, inputs=inputs, **checks)

@@ -17,8 +17,7 @@ import numpy as np
 from snapo_ode import flatten_inputs
 
 from ._chain import PharmaChain
-from ._parameters import CPPs
-from ._ranges import CPP_NAMES
+from ._parameters import ChainInputs
 from ._sensitivities import input_names, named_jacobian
 
 
@@ -27,9 +26,9 @@ def is_log_input(name: str) -> bool:
     return name.startswith("log_multiplier[")
 
 
-def log_scales(chain: PharmaChain, cpps: CPPs, uncertain) -> np.ndarray:
-    """d input / d ln k of each uncertain input at `cpps`: 1 for a log-multiplier, k for a rate."""
-    flat = np.asarray(flatten_inputs(chain.inputs(cpps))[0])
+def log_scales(chain: PharmaChain, inputs: ChainInputs, uncertain) -> np.ndarray:
+    """d input / d ln k of each uncertain input at `inputs`: 1 for a log-multiplier, k for a rate."""
+    flat = np.asarray(flatten_inputs(inputs)[0])
     column = {name: k for k, name in enumerate(input_names(chain))}
     return np.array([1.0 if is_log_input(name) else flat[column[name]] for name in uncertain])
 
@@ -41,17 +40,13 @@ def input_offsets(uncertain, scales: np.ndarray, draws: np.ndarray) -> np.ndarra
     return np.where(is_log, draws, scales * np.expm1(draws))
 
 
-def grid_inputs(chain: PharmaChain, cpps: CPPs, x: str, y: str, vx: float, vy: float):
-    """The chain's inputs with CPPs `x` and `y` at `vx`, `vy`, the others as in `cpps`."""
-    import jax.numpy as jnp
-
-    values = {name: getattr(cpps, name) for name in CPP_NAMES}
-    values.update({x: jnp.asarray(float(vx)), y: jnp.asarray(float(vy))})
-    return chain.inputs(CPPs(**values))
+def grid_inputs(inputs: ChainInputs, x: str, y: str, vx: float, vy: float) -> ChainInputs:
+    """`inputs` with CPPs `x` and `y` at `vx`, `vy`."""
+    return inputs._replace(cpps=inputs.cpps.replace(**{x: float(vx), y: float(vy)}))
 
 
 def log_sensitivities(result, chain: PharmaChain, inputs, uncertain, scales) -> tuple[np.ndarray, np.ndarray]:
-    """(CQAs (5,), S (5, m)) at `inputs` from `result` = (CQAs, Jacobian) there (one point of
+    """(CQAs (n_cqas,), S (n_cqas, m)) at `inputs` from `result` = (CQAs, Jacobian) there (one point of
     `jacobians_function(chain, True, "reverse")`)."""
     cqas, matrix = result
     values = np.asarray(cqas)
@@ -60,7 +55,7 @@ def log_sensitivities(result, chain: PharmaChain, inputs, uncertain, scales) -> 
 
 
 def curvature(evaluate_many, chain: PharmaChain, inputs, uncertain, scales, step: float) -> np.ndarray:
-    """H (5, m, m) at `inputs`: the one-sided difference of S over a step `step` in each ln k_j,
+    """H (n_cqas, m, m) at `inputs`: the one-sided difference of S over a step `step` in each ln k_j,
     symmetrised; the m + 1 Jacobians in one call of `evaluate_many` (see `jacobians_function`)."""
     flat, rebuild = flatten_inputs(inputs)
     flat = np.asarray(flat)
@@ -95,6 +90,6 @@ def interpolate(coarse_x: np.ndarray, coarse_y: np.ndarray, values: np.ndarray, 
 
 def surrogate_cqas(values: np.ndarray, sensitivities: np.ndarray, hessian: np.ndarray, draws: np.ndarray
                    ) -> np.ndarray:
-    """The CQAs (n, 5) of the surrogate at `draws` (n, m) of ln k - ln k0."""
+    """The CQAs (n, n_cqas) of the surrogate at `draws` (n, m) of ln k - ln k0."""
     quadratic = 0.5 * np.einsum("nm,cmk,nk->nc", draws, hessian, draws)
     return values[None, :] * np.exp(draws @ sensitivities.T + quadratic)

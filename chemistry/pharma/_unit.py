@@ -1,11 +1,12 @@
 """The unit operations of the chain and the streams between them.
 
 Every unit is a final `equinox.Module` deriving from `AbstractUnit`:
-`unit(inlet, inputs, solver) -> outlet`, with `inputs` the chain's `ChainInputs` (CPPs, rate
-parameters of the active reactions, physical parameters) and `solver` the `SolverSettings` of
-its solve. The chain is then the composition of its units (`PharmaChain.simulate`):
+`unit(inlet, parameters, rates, solver) -> outlet`, with `parameters` the unit's own (name ->
+float scalar, in the unit catalogue's model units; a CPP's value where a CPP sets one), `rates`
+the rate parameters of the active reactions and `solver` the `SolverSettings` of its solve. A
+process is then the composition of its units (`PharmaChain.simulate`), e.g. the built-in:
 
-    feed (Liquid) -> R1 -> Liquid -> R2 -> Liquid -> crystallizer -> Slurry -> filter -> Solids
+    feed (Liquid) -> r1 -> Liquid -> r2 -> Liquid -> crystallizer -> Slurry -> filter -> Solids
                   -> dryer -> Solids
 """
 
@@ -16,8 +17,9 @@ import equinox as eqx
 
 from snapo_ode import SolverSettings
 
+from chemistry import RateParameters
+
 from ..kinetics._types import Scalar, Vector
-from ._parameters import ChainInputs
 
 
 class Liquid(NamedTuple):
@@ -53,8 +55,9 @@ class Solids(NamedTuple):
 
 
 class AbstractUnit(eqx.Module):
-    """A unit operation: `unit(inlet, inputs, solver) -> outlet`."""
+    """A unit operation: `unit(inlet, parameters, rates, solver) -> outlet`."""
 
     @abc.abstractmethod
-    def __call__(self, inlet, inputs: ChainInputs, solver: SolverSettings):
-        """The outlet stream of `inlet` at `inputs`, integrated with `solver`."""
+    def __call__(self, inlet, parameters: dict, rates: RateParameters, solver: SolverSettings):
+        """The outlet stream of `inlet` with the unit's `parameters` (name -> scalar) and the
+        active reactions' `rates`, integrated with `solver`."""

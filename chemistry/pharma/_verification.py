@@ -26,16 +26,22 @@ class CanteraCheck(NamedTuple):
     r1_temperature: float
 
 
+def _r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
+    """The inputs, the active ones and the first reactor's parameters."""
+    inputs = chain.inputs(cpps, physical=physical)
+    _, active = chain.active(inputs)
+    return inputs, active, chain.unit_parameters(inputs)[chain.process.units[0].name]
+
+
 def stiffness_ratio(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, state=None) -> float:
     """max |Re lambda| / min |Re lambda| over the non-zero eigenvalues of R1's species Jacobian
     d(dy/dt)/dy [1/s] at its feed (or at `state`, amounts [kmol/m^3]) and the R1 temperature.
     Eigenvalues below 1e-13 of the largest are the conserved quantities' zeros (solvent,
     element balances) up to round-off."""
-    inputs = chain.inputs(cpps, physical=physical)
-    mechanism, active = chain.active(inputs)
-    batch = LiquidBatch(mechanism, False)
+    inputs, active, r1 = _r1(chain, cpps, physical)
+    batch = LiquidBatch(chain.active(inputs)[0], False)
     start = chain.feed(inputs).amounts if state is None else state
-    jacobian = jax.jacfwd(lambda y: batch.production(cpps.r1_temperature, y, active.rates))(start)
+    jacobian = jax.jacfwd(lambda y: batch.production(r1["temperature"], y, active.rates))(start)
     magnitudes = np.abs(np.linalg.eigvals(np.asarray(jacobian)).real)
     nonzero = magnitudes[magnitudes > 1e-13 * magnitudes.max()]
     return float(nonzero.max() / nonzero.min())
@@ -43,30 +49,29 @@ def stiffness_ratio(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters
 
 def r1_trajectory(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
     """R1's accepted steps: (times [s], amounts [kmol/m^3] shape (n, n_species), T [K] shape (n,))."""
-    inputs = chain.inputs(cpps, physical=physical)
-    _, active = chain.active(inputs)
-    solution = chain.r1(inputs)(chain.feed(inputs), active, chain.solver, saveat=diffrax.SaveAt(steps=True))
+    inputs, active, r1 = _r1(chain, cpps, physical)
+    solution = chain.r1(inputs)(chain.feed(inputs), r1, active.rates, chain.solver, saveat=diffrax.SaveAt(steps=True))
     finite = np.isfinite(np.asarray(solution.ts))
     ys = np.asarray(solution.ys)[finite]
     n_species = chain.mechanism.n_species
-    temperature = ys[:, n_species] * TEMPERATURE_SCALE if ys.shape[1] > n_species else np.full(len(ys), float(cpps.r1_temperature))
-    return 60.0 * float(cpps.r1_residence_time) * np.asarray(solution.ts)[finite], ys[:, :n_species], temperature
+    temperature = ys[:, n_species] * TEMPERATURE_SCALE if ys.shape[1] > n_species else np.full(len(ys), float(r1["temperature"]))
+    return 60.0 * float(r1["residence_time"]) * np.asarray(solution.ts)[finite], ys[:, :n_species], temperature
 
 
 def r1_outlet(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
     """R1's outlet `Liquid` at `cpps` (amounts [kmol per m^3 of feed volume], T [K])."""
-    inputs = chain.inputs(cpps, physical=physical)
-    _, active = chain.active(inputs)
-    return chain.r1(inputs)(chain.feed(inputs), active, chain.solver)
+    inputs, active, r1 = _r1(chain, cpps, physical)
+    return chain.r1(inputs)(chain.feed(inputs), r1, active.rates, chain.solver)
 
 
 def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, rtol=1e-11):
     """R1 integrated by Cantera: (amounts per m^3 of feed volume, T [K]) at the outlet."""
     import cantera
 
-    feed = np.asarray(chain.feed(chain.inputs(cpps, physical=physical)).amounts)
+    inputs, _, r1 = _r1(chain, cpps, physical)
+    feed = np.asarray(chain.feed(inputs).amounts)
     liquid = cantera.Solution(str(path))
-    temperature = float(cpps.r1_temperature)
+    temperature = float(r1["temperature"])
     liquid.TPX = temperature, cantera.one_atm, feed / feed.sum()
     # clone=False: in Cantera 3.2 a cloned ideal-condensed phase does not keep the state it was
     # given (its density and composition change), so each reactor gets its own Solution.
@@ -76,10 +81,10 @@ def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, pat
     outside = cantera.Solution(str(path))
     outside.TPX = temperature, cantera.one_atm, feed / feed.sum()
     jacket = cantera.Reservoir(outside, clone=False)
-    cantera.Wall(jacket, reactor, A=1.0, U=float(physical.jacket_ua))
+    cantera.Wall(jacket, reactor, A=1.0, U=float(r1["jacket_ua"]))
     network = cantera.ReactorNet([reactor])
     network.rtol, network.atol = rtol, 1e-20
-    network.advance(60.0 * float(cpps.r1_residence_time))
+    network.advance(60.0 * float(r1["residence_time"]))
     return reactor.phase.concentrations * reactor.volume, reactor.phase.T
 
 
@@ -104,11 +109,10 @@ def scipy_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, rt
     [kmol/m^3], then T / 300 K with the energy balance)."""
     from scipy.integrate import solve_ivp
 
-    inputs = chain.inputs(cpps, physical=physical)
-    mechanism, active = chain.active(inputs)
-    unit = LiquidBatch(mechanism, chain.scene.has("energy_balance"))
+    inputs, active, r1 = _r1(chain, cpps, physical)
+    unit = LiquidBatch(chain.active(inputs)[0], chain.scene.has("energy_balance"))
     start = unit.start(chain.feed(inputs))
-    args = (active.rates, ConstantTemperature(cpps.r1_temperature), 60.0 * cpps.r1_residence_time, physical.jacket_ua)
+    args = (active.rates, ConstantTemperature(r1["temperature"]), 60.0 * r1["residence_time"], r1["jacket_ua"])
     rhs = jax.jit(lambda s, y: unit.rhs(s, y, args))
     jac = jax.jit(jax.jacfwd(lambda s, y: unit.rhs(s, y, args), argnums=1))
     solution = solve_ivp(lambda s, y: np.asarray(rhs(s, y)), (0.0, 1.0), np.asarray(start), method="Radau",

@@ -1,0 +1,97 @@
+"""A process described in a file: the built-in chain from `processes/api_chain.yaml` gives the
+numbers recorded before the file existed (`benchmarks/pharma_golden.py`), a study runs on the
+user's inputs (none rebuilt from defaults behind them), `--set` names CPPs and parameters, and
+bad files get one-line errors naming the file, the line and the field, before any compile."""
+
+import json
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import snapo_ode
+from chemistry import MECHANISMS
+from chemistry.pharma import BUILT_IN_PROCESS, BUMP_SOLVER, PharmaChain, read_process_file, sensitivities
+from chemistry.pharma._settings import settings_values
+from fuzzing import loads_or_input_error, mutated_yaml_lines
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "benchmarks"))
+from pharma_golden import GOLDEN, RENAMED, differences  # noqa: E402
+
+TEXT = BUILT_IN_PROCESS.read_text().replace("../../mechanisms/pharma.yaml", str(MECHANISMS / "pharma.yaml"))
+
+
+def test_the_built_in_file_gives_the_numbers_recorded_before_it(tmp_path):
+    (tmp_path / "copy.yaml").write_text(TEXT)  # the file, moved: its mechanism by an absolute path
+    chain = PharmaChain(solver=BUMP_SOLVER, process=tmp_path / "copy.yaml")
+    jac, _ = sensitivities(chain, chain.inputs(chain.cpps()), repeats=1)
+    now = {"cqas": dict(zip(jac.output_names, np.asarray(jac.values).tolist(), strict=True)),
+           "jacobian": {cqa: dict(zip(jac.input_names, row.tolist(), strict=True))
+                        for cqa, row in zip(jac.output_names, np.asarray(jac.matrix), strict=True)}}
+    golden = json.loads(GOLDEN.read_text())["bump_solver/nominal"]
+    assert differences({"all": golden}, {"all": now}, lambda name: RENAMED.get(name, name))["all"] <= 1e-10
+
+
+def test_a_study_runs_on_the_inputs_it_is_given():
+    from chemistry.pharma import sensitivity_study
+
+    chain = PharmaChain(solver=BUMP_SOLVER)
+    inputs = chain.inputs(chain.cpps(), physical=chain.physical(**{"filter.cake_liquor": 0.45}))
+    study = sensitivity_study(chain, inputs, repeats=1, check_bumps=False, reference=None)
+    nominal = sensitivity_study(chain, chain.cpps(), repeats=1, check_bumps=False, reference=None)
+    assert float(study.inputs.physical["filter.cake_liquor"]) == 0.45
+    assert study.cqas["residual_solvent"] > 1.2 * nominal.cqas["residual_solvent"]  # more liquor, more solvent
+
+
+def test_set_names_a_cpp_by_name_or_target_and_a_parameter_with_its_unit():
+    process = read_process_file(BUILT_IN_PROCESS)
+    cpps, physical = settings_values(process, {"cooling_rate": 0.4},
+                                     ["r1.temperature=315", "r1_residence_time=0.5 h", "r2.time=2 h",
+                                      "feed.A=330 mol/m^3"])
+    assert cpps == {"cooling_rate": 0.4, "r1_temperature": 315.0, "r1_residence_time": 30.0}
+    assert physical == {"r2.time": 7200.0, "feed.A": pytest.approx(0.33, rel=1e-15)}
+    for bad, message in ((["r1.pressure=2"], "no CPP"), (["r1.temperature"], "NAME=VALUE"),
+                         (["r1.temperature=1 kg"], "does not convert"),
+                         (["r1_temperature=315", "r1.temperature=316"], "set twice")):
+        with pytest.raises(snapo_ode.InputError, match=message):
+            settings_values(process, {}, bad)
+
+
+BAD_FILES = [
+    ("type: cooling_crystallizer", "type: msmpr_crystallizer", r"line 38: units\[crystallizer\].type = 'msmpr"),
+    ("  X: {role: byproduct}", "", "species 'X' of the mechanism has no role"),
+    ("target: dryer.temperature", "target: dryer.pressure", r"line 75: cpps\[dryer_temperature\].target"),
+    ("definition: {mass_fraction: I}", "definition: {mass_fraction: Q}", r"line 80: .*mass_fraction: Q"),
+    ("nor: [0.4, 0.6]", "nor: [0.2, 0.6]", r"line 73: cpps\[cooling_rate\].*nor inside par"),
+    ("growth_rate: 5.0e-8 m/s", "growth_rate: 5.0e-8 kg/s", r"line 43: .*crystallizer.growth_rate = '5.0e-8 kg/s' "
+                                                              "does not convert to 'm/s'"),
+    ("time: 3600 s", "time: 3600 parsec", "line 36: .*r2.time.*does not convert"),
+    ("cake_liquor: 0.3", "cake_liquour: 0.3", "line 56: filter.cake_liquour is no parameter of a filter"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "message"), BAD_FILES, ids=[b[2].split(":")[0][:30] for b in BAD_FILES])
+def test_a_bad_process_file_names_the_file_the_line_and_the_field(tmp_path, old, new, message):
+    assert old in TEXT
+    path = tmp_path / "process.yaml"
+    path.write_text(TEXT.replace(old, new, 1))
+    with pytest.raises(snapo_ode.InputError, match=message) as error:
+        PharmaChain(process=path)
+    assert str(path) in str(error.value) and "\n" not in str(error.value)
+
+
+FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+ODD = ["[]", "{}", "abc", "-1", "0", "1e400", ".nan", "null", "[1, 2, 3]", "{a: x}", "true", "'1.0'", "3 parsec"]
+
+
+@FUZZ
+@given(data=st.data())
+def test_mutated_process_files_load_or_raise_input_error(tmp_path, data):
+    path = tmp_path / "process.yaml"
+    path.write_text("".join(mutated_yaml_lines(data, TEXT.splitlines(keepends=True), ODD)))
+    chain = loads_or_input_error(lambda: PharmaChain(process=path))
+    if chain is not None:
+        assert len(chain.cpp_names) >= 1 and all(np.isfinite(chain.physical().values))
