@@ -1,8 +1,9 @@
 """The built-in pharma chain's numbers, recorded once so that a change of how the chain is
 described (issue 35: the process file) can show it reproduces them: `--write` records them
 (`tests/data/pharma_golden.json`), `--check` recomputes them and prints the largest relative
-difference of each group. Recorded before the balance fixes; the fixes' own changes are stated
-in docs/pharma.md.
+difference of each group. Recorded at commit 43442d2, before the process file: at 66309fd (the
+process file) every group was 0.0; the two balance fixes that followed moved them (the CQAs'
+changes are stated in docs/pharma.md and held by tests/test_pharma_process_file.py).
 
     .venv/bin/python benchmarks/pharma_golden.py --check
 

@@ -7,6 +7,7 @@ use (see `snapo_ode.lazy_exports`)."""
 from snapo_ode import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, {
+    "._balances": ("element_matrix", "mass_balances"),
     "._bench": ("run_pharma_benchmark",),
     "._chain": ("CHAIN_SOLVER", "DEFAULT_MECHANISM", "PHARMA_EFFECTS", "ChainResult", "PharmaChain"),
     "._cqa": ("cqa_dict", "cqa_vector", "meets_specs", "spec_margins", "spec_penalty"),
@@ -14,7 +15,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                        "SpeciesRoles", "solubility"),
     "._design_space": ("DesignSpace", "DesignSpaceSettings", "default_uncertain", "design_space"),
     "._dryer": ("Dryer", "DryerOutlet"),
-    "._filter": ("Filter",),
+    "._filter": ("Filter", "FilterStreams"),
     "._liquid": ("HoldReactor", "LiquidBatch", "SynthesisReactor", "TEMPERATURE_SCALE"),
     "._parameters": ("ChainInputs", "CPPs", "NamedValues", "PhysicalParameters", "arrhenius"),
     "._process": ("default_physical_parameters", "load_process", "make_cpps", "molar_masses", "outside_par",

@@ -77,10 +77,17 @@ class SpeciesRoles(NamedTuple):
 
 class Crystallizer(eqx.Module):
     """The cooling crystallizer's physics; `impurity_incorporation`: whether impurity and
-    degradant enter the crystals (partition coefficients), else the crystals are pure API."""
+    degradant enter the crystals (partition coefficients), else the crystals are pure API.
+    `incorporated_molar_masses`: the impurity's and the degradant's [kg/kmol].
+
+    The crystals' mass grows as their volume (density x shape factor x d mu_3); the growing layer
+    holds x_j = partition_j c_j / c_API moles of impurity or degradant j per mole of API, so that
+    of a mass growth m' the API is m' / (M_API + sum_j x_j M_j) moles and j is x_j times that:
+    each leaves the liquor as it enters the crystals."""
 
     api_molar_mass: float = eqx.field(static=True)
     impurity_incorporation: bool = eqx.field(static=True)
+    incorporated_molar_masses: tuple[float, float] = eqx.field(static=True, default=(0.0, 0.0))
 
     def rhs(self, s, state, args):
         profile, duration, p, impurity0, degradant0 = args
@@ -95,15 +102,14 @@ class Crystallizer(eqx.Module):
             jnp.reshape(nucleation / N_REF, (1,)),
             jnp.arange(1, 5) * (growth / L_REF) * scaled[:4],
         ])
-        # [kmol/m^3/s] of API moving into the crystals (nuclei have negligible volume).
-        crystallizing = p["crystal_density"] * p["shape_factor"] * N_REF * L_REF**3 / self.api_molar_mass * d_moments[3]
-        rates = [jnp.reshape(-crystallizing, (1,)), d_moments]
-        if self.impurity_incorporation:
-            impurity_liquor = impurity0 - state[6]
-            degradant_liquor = degradant0 - state[7]
-            rates.append(crystallizing / api * jnp.stack([p["partition_impurity"] * impurity_liquor,
-                                                          p["partition_degradant"] * degradant_liquor]))
-        return duration * jnp.concatenate(rates)
+        # [kg/m^3/s] into the crystals (nuclei have negligible volume).
+        growing = p["crystal_density"] * p["shape_factor"] * N_REF * L_REF**3 * d_moments[3]
+        if not self.impurity_incorporation:
+            return duration * jnp.concatenate([jnp.reshape(-growing / self.api_molar_mass, (1,)), d_moments])
+        ratios = jnp.stack([p["partition_impurity"] * (impurity0 - state[6]),
+                            p["partition_degradant"] * (degradant0 - state[7])]) / api  # [mol per mol API]
+        crystallizing = growing / (self.api_molar_mass + ratios @ jnp.asarray(self.incorporated_molar_masses))
+        return duration * jnp.concatenate([jnp.reshape(-crystallizing, (1,)), d_moments, crystallizing * ratios])
 
     def __call__(self, api, impurity, degradant, profile: AbstractTemperatureProfile, duration, parameters: dict,
                  solver: SolverSettings) -> CrystallizerOutlet:

@@ -24,8 +24,9 @@ def build_unit(chain, unit, mechanism: Mechanism, profile=None) -> AbstractUnit 
         api_molar_mass = chain.masses[roles.api]
         volumes = chain.mechanism.molar_volumes
         if scene.has("crystallization"):
-            return CoolingCrystallizer(Crystallizer(api_molar_mass, scene.has("impurity_incorporation")), volumes,
-                                       roles, profile)
+            incorporated = (chain.masses[roles.impurity], chain.masses[roles.degradant])
+            physics = Crystallizer(api_molar_mass, scene.has("impurity_incorporation"), incorporated)
+            return CoolingCrystallizer(physics, volumes, roles, profile)
         return EquilibriumIsolation(api_molar_mass, volumes, roles)
     if unit.type == "filter":
         return Filter(chain.molar_masses, roles)
