@@ -16,7 +16,7 @@ from ._process_file import BUILT_IN_PROCESS, ProcessSpec, built_in_process, read
 
 
 def _solution(spec: ProcessSpec):
-    where = f"process file {spec.path}: mechanism {spec.mechanism!r}"
+    where = f"process {spec.path}: mechanism {spec.mechanism!r}"
     try:
         return cantera.Solution(spec.mechanism, spec.phase or "")
     except cantera.CanteraError as error:
@@ -27,7 +27,7 @@ def _solution(spec: ProcessSpec):
 def check_mechanism(spec: ProcessSpec, species_names, reaction_equations, thermo_model: str) -> None:
     """Refuse a process whose mechanism lacks what the file names, or names a species without a
     role. **Raises:** `InputError` naming the process file and the species or reaction."""
-    where = f"process file {spec.path}"
+    where = f"process {spec.path}"
     for name in species_names:
         if name not in spec.roles:
             raise InputError(f"{where}: species {name!r} of the mechanism has no role; give it one under species "

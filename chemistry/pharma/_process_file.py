@@ -71,17 +71,20 @@ class ProcessSpec(NamedTuple):
 
 
 class _Where:
-    """Names a place of the file in errors: "process file F, line N"."""
+    """Names a place of the process in errors: "process file F, line N" (a process given as a
+    dict: "process NAME")."""
 
-    def __init__(self, path, text: str):
-        self.path, self.text = path, text
+    def __init__(self, label: str, text: str | None):
+        self.label, self.text = label, text
 
     def __call__(self, key: str, value: str | None = None) -> str:
         """The file and the line of the first `key:` (followed by `value` if given)."""
+        if self.text is None:
+            return self.label
         pattern = rf"""["']?{re.escape(key)}["']?\s*:""" + ("" if value is None else rf"""\s*["']?{re.escape(value)}\b""")
         match = re.search(pattern, self.text)
         line = "" if match is None else f", line {self.text.count(chr(10), 0, match.start()) + 1}"
-        return f"process file {self.path}{line}"
+        return f"{self.label}{line}"
 
 
 def _flowsheet(units, where) -> None:
@@ -194,8 +197,21 @@ def read_process_file(path) -> ProcessSpec:
     **Raises:** `InputError` naming the file, the line, the field, the value and what is allowed."""
     path = pathlib.Path(path)
     text = read_text(path, "process")
-    where = _Where(path, text)
-    data = validate(ProcessFile, strict_yaml(text, f"process file {path}"), f"process file {path}", text)
+    label = f"process file {path}"
+    return _process(strict_yaml(text, label), label, text, str(path), path.parent)
+
+
+def process_from_dict(data: dict, *, name: str = "<python>", directory=".") -> ProcessSpec:
+    """A process written in Python: `data` holds the file's sections (plain dicts, lists, numbers
+    and strings; a mechanism file relative to `directory`), checked as a file is.
+
+    **Raises:** `InputError` naming the process `name`, the field, the value and what is allowed."""
+    return _process(data, f"process {name}", None, name, pathlib.Path(directory))
+
+
+def _process(raw, label: str, text: str | None, source: str, directory: pathlib.Path) -> ProcessSpec:
+    where = _Where(label, text)
+    data = validate(ProcessFile, raw, label, text)
     roles = _roles(data, where)
     for name in data.feed.concentrations:
         if name not in roles:
@@ -215,9 +231,9 @@ def read_process_file(path) -> ProcessSpec:
     effects = {equation: effect for effect, equations in data.mechanism.effects.items() for equation in equations}
     pair = data.feed.equilibrium
     mechanism = data.mechanism.file
-    if (path.parent / mechanism).is_file():
-        mechanism = str((path.parent / mechanism).resolve())
-    spec = ProcessSpec(data.name, data.description, str(path), mechanism, data.mechanism.phase, effects, roles, masses, feed,
+    if (directory / mechanism).is_file():
+        mechanism = str((directory / mechanism).resolve())
+    spec = ProcessSpec(data.name, data.description, source, mechanism, data.mechanism.phase, effects, roles, masses, feed,
                        None if pair is None else (pair.forward, pair.reverse), units, cpps, _cqas(data, roles, where),
                        tuple(data.uncertain))
     known = set(spec.physical_defaults())
