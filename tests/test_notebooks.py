@@ -1,4 +1,4 @@
-"""The five notebooks: committed without outputs, each with its small size (`SNAPO_NOTEBOOK_SMALL`),
+"""The six notebooks: committed without outputs, each with its small size (`SNAPO_NOTEBOOK_SMALL`),
 checked by `make test`; run end to end at that size by `make docs` (which CI runs after
 `make test`: a cell that raises fails the site's build) and by `make test-slow`."""
 
@@ -12,7 +12,7 @@ NAMES = sorted(path.name for path in NOTEBOOKS.glob("*.ipynb"))
 
 
 def test_the_notebooks_are_committed_without_outputs_and_have_a_small_size():
-    assert len(NAMES) == 5
+    assert len(NAMES) == 6
     for name in NAMES:
         cells = [cell for cell in json.loads((NOTEBOOKS / name).read_text())["cells"] if cell["cell_type"] == "code"]
         assert all(not cell.get("outputs") and cell.get("execution_count") is None for cell in cells), name

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._chain import PharmaChain
-from ._crystallizer import CoolingCrystallizer, Slurry
+from ._crystallizer import EquilibriumIsolation, Slurry
 from ._filter import Filter
 from ._parameters import ChainInputs
 from ._unit import Liquid, Solids
@@ -32,10 +32,11 @@ def _relative(difference, scale):
 
 
 def _groups(masses, roles) -> jnp.ndarray:
-    """[api, impurity, degradant, other, solvent] masses of a per-species mass vector."""
-    tracked = masses[roles.api] + masses[roles.impurity] + masses[roles.degradant] + masses[roles.solvent]
+    """[api, impurity, degradant, other, solvents] masses of a per-species mass vector."""
+    solvents = sum(masses[k] for k in roles.solvents)
+    tracked = masses[roles.api] + masses[roles.impurity] + masses[roles.degradant] + solvents
     return jnp.stack([masses[roles.api], masses[roles.impurity], masses[roles.degradant],
-                      jnp.sum(masses) - tracked, masses[roles.solvent]])
+                      jnp.sum(masses) - tracked, solvents])
 
 
 def _solids(solids: Solids) -> jnp.ndarray:
@@ -58,8 +59,8 @@ def mass_balances(chain: PharmaChain, inputs: ChainInputs) -> dict[str, jnp.ndar
         elif isinstance(outlet, Slurry):
             # The crystals' growth (the seeds aside) is the API, impurity and degradant the liquor lost
             # (the impurity and degradant are counted as they leave it: `impurity_solid`).
-            crystals, fed = outlet.crystals, inlet.concentrations(chain.mechanism.molar_volumes)
-            seeds = parameters[name]["seed_loading"] if isinstance(unit, CoolingCrystallizer) else 0.0
+            crystals, fed = outlet.crystals, outlet.liquor
+            seeds = 0.0 if isinstance(unit, EquilibriumIsolation) else parameters[name]["seed_loading"]
             incorporated = masses[roles.impurity] * crystals.impurity_solid + masses[roles.degradant] * crystals.degradant_solid
             lost = (fed[roles.api] - crystals.api) * masses[roles.api] + incorporated
             residuals[name] = _relative(crystals.crystal_mass - seeds - lost, crystals.crystal_mass)

@@ -213,8 +213,10 @@ class PharmaChain(eqx.Module):
 
     @property
     def roles(self) -> SpeciesRoles:
-        return SpeciesRoles(*(self.species_index(self.role_species(role))
-                              for role in ("api", "impurity", "degradant", "solvent")))
+        antisolvent = self.process.species_with_role("antisolvent")
+        return SpeciesRoles(*(self.species_index(self.role_species(role)) for role in ("api", "impurity", "degradant",
+                                                                                          "solvent")),
+                            self.species_index(antisolvent[0]) if antisolvent else -1)
 
     def active(self, inputs: ChainInputs) -> tuple[Mechanism, ChainInputs]:
         """The mechanism reduced to the reactions of the active effects, and `inputs` with their

@@ -96,8 +96,11 @@ def run_train(args) -> int:
     study = train_profiles(chain, inputs.cpps, inputs.physical, steps=args.steps, learning_rate=args.learning_rate,
                            penalty_weight=args.penalty_weight, sharpness=args.sharpness, seed=args.seed,
                            progress=args.progress, checkpoint_path=args.checkpoint, resume=args.resume)
-    written = study.publish(args.json, {".r1.eqx": policy_bytes(study.profiles.r1_jacket.policy),
-                                        ".cooling.eqx": policy_bytes(study.profiles.cooling.policy)})
+    profiles = study.profiles
+    policies = {".r1.eqx": policy_bytes(profiles.r1_jacket.policy)}
+    if profiles.cooling is not None:
+        policies[".cooling.eqx"] = policy_bytes(profiles.cooling.policy)
+    written = study.publish(args.json, policies)
     print(study.summary())
     print(f"written: {', '.join(map(str, written))}")
     return 0

@@ -2,9 +2,11 @@
 `cqas`), hard spec checks for reporting and smooth spec penalties for training.
 
 The vocabulary, each computed in its unit (`_process_file.CQA_UNITS`) and converted to the
-file's: `assay` (API in the product, % w/w), `mass_fraction` of a tracked species (the API, the
-impurity or the degradant, % w/w), `residual_solvent` (ppm w/w), `d43` (the volume-weighted mean
-crystal size, um), `yield` (API over the first fed species, mol %)."""
+file's: `assay` (API in the product as it leaves the last unit, % w/w), `purity` (API in the
+product's solids, dry basis, % w/w), `mass_fraction` of a tracked species (the API, the impurity
+or the degradant, % w/w), `residual_solvent` (ppm w/w) and `loss_on_drying` (% w/w): the solvent
+and antisolvent, `d43` (the volume-weighted mean crystal size, um), `yield` (API over the first
+fed species, mol %)."""
 
 import jax
 import jax.numpy as jnp
@@ -24,6 +26,10 @@ def _value(result: ChainResult, definition, roles: dict):
     product = result.product
     if definition == "assay":
         return 100 * product.api / product.total
+    if definition == "purity":
+        return 100 * product.api / product.solids
+    if definition == "loss_on_drying":
+        return 100 * product.solvent / product.total
     if definition == "residual_solvent":
         return 1e6 * product.solvent / product.total
     if definition == "d43":

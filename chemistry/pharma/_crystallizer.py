@@ -20,7 +20,7 @@ from chemistry import RateParameters
 
 from ..kinetics._types import Scalar, Vector
 from ._parameters import arrhenius
-from ._profiles import AbstractTemperatureProfile, LinearRamp
+from ._profiles import AbstractTemperatureProfile, ConstantTemperature, LinearRamp
 from ._unit import AbstractUnit, Liquid
 
 
@@ -66,13 +66,19 @@ class Slurry(NamedTuple):
 
 
 class SpeciesRoles(NamedTuple):
-    """Where the API `api`, the impurity `impurity`, the degradant `degradant` and the `solvent`
-    sit in the mechanism's species."""
+    """Where the API `api`, the impurity `impurity`, the degradant `degradant`, the `solvent` and
+    the `antisolvent` (-1: none) sit in the mechanism's species."""
 
     api: int
     impurity: int
     degradant: int
     solvent: int
+    antisolvent: int = -1
+
+    @property
+    def solvents(self) -> tuple[int, ...]:
+        """The solvent and the antisolvent, if any: what a dryer removes and loss on drying counts."""
+        return (self.solvent,) if self.antisolvent < 0 else (self.solvent, self.antisolvent)
 
 
 class Crystallizer(eqx.Module):
@@ -90,10 +96,13 @@ class Crystallizer(eqx.Module):
     incorporated_molar_masses: tuple[float, float] = eqx.field(static=True, default=(0.0, 0.0))
 
     def rhs(self, s, state, args):
-        profile, duration, p, impurity0, degradant0 = args
+        profile, duration, p, impurity0, degradant0, addition = args
         temperature = profile(s)
         api, scaled = state[0], state[1:6]
-        supersaturation = api / solubility(temperature, p) - 1
+        if addition is None:
+            supersaturation = api / solubility(temperature, p) - 1
+        else:  # api per m^3 of the initial liquor, in a volume that grows as the antisolvent comes in
+            supersaturation = api / addition.volume(s) / (solubility(temperature, p) * addition.solubility_factor(s, p)) - 1
         growth = (arrhenius(p["growth_rate"], p["growth_activation"], temperature, p["solubility_ref_temperature"])
                   * _power_of_positive(supersaturation, p["growth_order"]))
         crystal_volume = p["shape_factor"] * N_REF * L_REF**3 * scaled[3]  # [m^3/m^3]
@@ -112,22 +121,39 @@ class Crystallizer(eqx.Module):
         return duration * jnp.concatenate([jnp.reshape(-crystallizing, (1,)), d_moments, crystallizing * ratios])
 
     def __call__(self, api, impurity, degradant, profile: AbstractTemperatureProfile, duration, parameters: dict,
-                 solver: SolverSettings) -> CrystallizerOutlet:
+                 solver: SolverSettings, addition: "AntisolventAddition | None" = None) -> CrystallizerOutlet:
         """Crystallize from liquor with `api`, `impurity`, `degradant` [kmol/m^3] over `duration`
         [s] along the temperature `profile`, seeded with `seed_loading` [kg/m^3] of crystals of
-        `seed_size` [m] (the crystallizer's `parameters`)."""
+        `seed_size` [m] (the crystallizer's `parameters`); with an antisolvent `addition`, every
+        amount is per m^3 of the initial liquor."""
         p = parameters
         seed_count = p["seed_loading"] / (p["crystal_density"] * p["shape_factor"] * p["seed_size"]**3)
         seed_moments = seed_count / N_REF * (p["seed_size"] / L_REF) ** jnp.arange(5)
         state = jnp.concatenate([jnp.reshape(api, (1,)), seed_moments])
         if self.impurity_incorporation:
             state = jnp.concatenate([state, jnp.zeros(2)])
-        end = solver.solve(self.rhs, 0.0, 1.0, state, (profile, duration, p, impurity, degradant),
+        end = solver.solve(self.rhs, 0.0, 1.0, state, (profile, duration, p, impurity, degradant, addition),
                            stiff=False).ys[-1]
         moments = end[1:6] * N_REF * L_REF ** jnp.arange(5)
         solid = end[6:8] if self.impurity_incorporation else jnp.zeros(2)
         return CrystallizerOutlet(end[0], moments, solid[0], solid[1], profile(1.0),
                                   p["crystal_density"] * p["shape_factor"] * moments[3])
+
+
+class AntisolventAddition(eqx.Module):
+    """Antisolvent added at a constant rate over the crystallization: `ratio` m^3 of it per m^3 of
+    the initial liquor in all. At normalised time s the volume is 1 + ratio s [m^3 per m^3 of the
+    initial liquor], the antisolvent's volume fraction w = ratio s / (1 + ratio s), and the
+    solubility falls by exp(-(a w + b w^2)) (`antisolvent_linear` a, `antisolvent_quadratic` b)."""
+
+    ratio: Scalar
+
+    def volume(self, s):
+        return 1 + self.ratio * s
+
+    def solubility_factor(self, s, parameters: dict):
+        fraction = self.ratio * s / self.volume(s)
+        return jnp.exp(-(parameters["antisolvent_linear"] + parameters["antisolvent_quadratic"] * fraction) * fraction)
 
 
 class CoolingCrystallizer(AbstractUnit):
@@ -169,3 +195,24 @@ class EquilibriumIsolation(AbstractUnit):
         zero = jnp.zeros_like(api)
         mass = p["crystal_density"] * p["shape_factor"] * moments[3]
         return Slurry(liquor, CrystallizerOutlet(api - solid, moments, zero, zero, p["final_temperature"], mass))
+
+
+class AntisolventCrystallizer(AbstractUnit):
+    """The antisolvent crystallizer (type `antisolvent_crystallizer`): at `temperature` [K] (or
+    along a learned `profile`), `antisolvent_ratio` m^3 of the `antisolvent` species per m^3 of
+    liquor added at a constant rate over `addition_time` [min] (semi-batch); the slurry's liquor
+    is per m^3 of the liquor fed, the antisolvent in it."""
+
+    physics: Crystallizer
+    molar_volumes: Vector
+    roles: SpeciesRoles = eqx.field(static=True)
+    antisolvent: int = eqx.field(static=True)
+    profile: AbstractTemperatureProfile | None = None
+
+    def __call__(self, inlet: Liquid, parameters: dict, rates: RateParameters, solver: SolverSettings) -> Slurry:
+        roles, ratio = self.roles, parameters["antisolvent_ratio"]
+        liquor = inlet.concentrations(self.molar_volumes)
+        profile = ConstantTemperature(parameters["temperature"]) if self.profile is None else self.profile
+        crystals = self.physics(liquor[roles.api], liquor[roles.impurity], liquor[roles.degradant], profile,
+                                60.0 * parameters["addition_time"], parameters, solver, AntisolventAddition(ratio))
+        return Slurry(liquor.at[self.antisolvent].add(ratio / self.molar_volumes[self.antisolvent]), crystals)

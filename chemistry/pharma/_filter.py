@@ -36,7 +36,7 @@ class Filter(AbstractUnit):
     def streams(self, inlet: Slurry, parameters: dict) -> FilterStreams:
         """The cake, the filtrate and the wash (`FilterStreams`)."""
         crystals, roles = inlet.crystals, self.roles
-        p, i, d, s = roles.api, roles.impurity, roles.degradant, roles.solvent
+        p, i, d = roles.api, roles.impurity, roles.degradant
         liquid = parameters["cake_liquor"] * crystals.crystal_mass  # [kg] of liquid the cake keeps
         final_liquor = (inlet.liquor.at[p].set(crystals.api)
                         .at[i].add(-crystals.impurity_solid).at[d].add(-crystals.degradant_solid))
@@ -45,12 +45,13 @@ class Filter(AbstractUnit):
         wash = liquid - jnp.sum(retained)
         impurity_solid = self.molar_masses[i] * crystals.impurity_solid
         degradant_solid = self.molar_masses[d] * crystals.degradant_solid
+        solvents = sum(retained[k] for k in roles.solvents)
         cake = Solids(
             api=crystals.crystal_mass - impurity_solid - degradant_solid + retained[p],
             impurity=impurity_solid + retained[i],
             degradant=degradant_solid + retained[d],
-            other=jnp.sum(retained) - retained[p] - retained[i] - retained[d] - retained[s],
-            solvent=retained[s] + wash,
+            other=jnp.sum(retained) - retained[p] - retained[i] - retained[d] - solvents,
+            solvent=solvents + wash,
         )
         return FilterStreams(cake, liquor_masses - retained, wash)
 

@@ -88,10 +88,11 @@ class SynthesisReactor(AbstractUnit):
 
 class HoldReactor(AbstractUnit):
     """An isothermal batch reactor (type `batch_reactor`; the built-in R2, a hold) at
-    `temperature` [K] for `time` [s]."""
+    `temperature` [K] (or along a learned `jacket` profile) for `time` [s]."""
 
     batch: LiquidBatch
+    jacket: AbstractTemperatureProfile | None = None
 
     def __call__(self, inlet: Liquid, parameters: dict, rates: RateParameters, solver: SolverSettings) -> Liquid:
-        return self.batch.run(inlet, ConstantTemperature(parameters["temperature"]), parameters["time"], rates, 0.0,
-                              solver)
+        jacket = ConstantTemperature(parameters["temperature"]) if self.jacket is None else self.jacket
+        return self.batch.run(inlet, jacket, parameters["time"], rates, 0.0, solver)

@@ -34,35 +34,47 @@ class NeuralCooling(AbstractTemperatureProfile):
 
 class Profiles(eqx.Module):
     """The trainable profiles: `r1_jacket` (`NeuralTemperature` within the proven acceptable range
-    of the first plug-flow reactor's temperature) and `cooling` (`NeuralCooling` of the
-    crystallizer)."""
+    of the temperature of `jacket_unit`, the first plug-flow or batch reactor whose temperature is
+    a CPP) and `cooling` (`NeuralCooling` of `cooling_unit`, a cooling crystallizer; None
+    without one)."""
 
     r1_jacket: NeuralTemperature
-    cooling: NeuralCooling
+    cooling: NeuralCooling | None
+    jacket_unit: str = eqx.field(static=True)
+    cooling_unit: str | None = eqx.field(static=True)
+
+    def by_unit(self) -> dict:
+        """unit name -> profile, as `PharmaChain.simulate` takes them."""
+        return {self.jacket_unit: self.r1_jacket, **({} if self.cooling is None else {self.cooling_unit: self.cooling})}
 
 
 def make_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, key, width: int = 16,
                   amplitude: float = 5.0) -> Profiles:
     """The profiles at their start: the jacket within the PAR of the CPP that sets the first
-    plug-flow reactor's temperature, the cooling between the crystallizer's inlet temperature (the
-    unit before it) and its final temperature.
+    plug-flow or batch reactor's temperature, the cooling (where the process has a cooling
+    crystallizer) between its inlet temperature (the unit before it) and its final temperature.
 
-    **Raises:** `InputError` for a process without a plug-flow reactor whose temperature is a CPP."""
-    units = chain.process.units
-    reactor = next((u.name for u in units if u.type == "plug_flow_reactor"), None)
-    r1 = next((r for r in chain.cpp_ranges if r.target == f"{reactor}.temperature"), None)
-    if r1 is None:
-        raise InputError(f"process {chain.process.name!r}: training needs a plug_flow_reactor whose temperature is a CPP.")
-    crystallizer = next(k for k, u in enumerate(units) if u.type == "cooling_crystallizer")
-    parameters = chain.unit_parameters(chain.inputs(cpps, physical=physical))
-    start = parameters[units[crystallizer - 1].name]["temperature"]
+    **Raises:** `InputError` for a process without a plug-flow or batch reactor whose temperature
+    is a CPP."""
+    units, ranges = chain.process.units, {r.target: r for r in chain.cpp_ranges}
+    reactor = next((u.name for u in units if u.type in ("plug_flow_reactor", "batch_reactor")
+                    and f"{u.name}.temperature" in ranges), None)
+    if reactor is None:
+        raise InputError(f"process {chain.process.name!r}: training needs a plug_flow_reactor or batch_reactor whose "
+                         "temperature is a CPP (its jacket profile is what is trained).")
+    r1 = ranges[f"{reactor}.temperature"]
     r1_key, cooling_key = jax.random.split(key)
     jacket = NeuralTemperature(MLPPolicy(1, 1, key=r1_key, width=width, depth=2, action_low=r1.par[0],
                                          action_high=r1.par[1], feature_offset=0.5, feature_scale=0.5))
+    crystallizer = next((k for k, u in enumerate(units) if u.type == "cooling_crystallizer"), None)
+    if crystallizer is None:
+        return Profiles(jacket, None, reactor, None)
+    parameters = chain.unit_parameters(chain.inputs(cpps, physical=physical))
+    start = parameters[units[crystallizer - 1].name]["temperature"]
     cooling = NeuralCooling(MLPPolicy(1, 1, key=cooling_key, width=width, depth=2, feature_offset=0.5,
                                       feature_scale=0.5), start, parameters[units[crystallizer].name]["final_temperature"],
                             amplitude)
-    return Profiles(jacket, cooling)
+    return Profiles(jacket, cooling, reactor, units[crystallizer].name)
 
 
 def profile_objective(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, penalty_weight: float,
@@ -70,8 +82,7 @@ def profile_objective(chain: PharmaChain, cpps: CPPs, physical: PhysicalParamete
     """profiles -> (loss, metrics): loss = -yield / 100 + penalty_weight * smooth spec penalty."""
 
     def loss(profiles: Profiles):
-        result = chain.simulate(chain.inputs(cpps, physical=physical), r1_jacket=profiles.r1_jacket,
-                                cooling=profiles.cooling)
+        result = chain.simulate(chain.inputs(cpps, physical=physical), profiles=profiles.by_unit())
         cqas = cqa_vector(result, chain.process)
         penalty = spec_penalty(cqas, sharpness, chain.process)
         return -result.api_yield / 100 + penalty_weight * penalty, {"value": result.api_yield, "penalty": penalty}
@@ -81,21 +92,23 @@ def profile_objective(chain: PharmaChain, cpps: CPPs, physical: PhysicalParamete
 
 def constant_profiles(profiles: Profiles) -> Profiles:
     """The baseline as the same structure: last layers zeroed, so the R1 jacket sits at the middle
-    of its PAR (= the nominal r1_temperature) and the cooling is the linear ramp, exactly."""
+    of its PAR (for the built-in, the nominal r1_temperature) and the cooling is the linear ramp,
+    exactly."""
 
     def zero_last(policy: MLPPolicy) -> MLPPolicy:
         last = policy.mlp.layers[-1]
         return eqx.tree_at(lambda p: (p.mlp.layers[-1].weight, p.mlp.layers[-1].bias), policy,
                            (jnp.zeros_like(last.weight), jnp.zeros_like(last.bias)))
 
-    return eqx.tree_at(lambda p: (p.r1_jacket.policy, p.cooling.policy), profiles,
-                       (zero_last(profiles.r1_jacket.policy), zero_last(profiles.cooling.policy)))
+    profiles = eqx.tree_at(lambda p: p.r1_jacket.policy, profiles, zero_last(profiles.r1_jacket.policy))
+    if profiles.cooling is None:
+        return profiles
+    return eqx.tree_at(lambda p: p.cooling.policy, profiles, zero_last(profiles.cooling.policy))
 
 
 @eqx.filter_jit
 def _simulate_with(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, profiles: Profiles):
-    result = chain.simulate(chain.inputs(cpps, physical=physical), r1_jacket=profiles.r1_jacket,
-                            cooling=profiles.cooling)
+    result = chain.simulate(chain.inputs(cpps, physical=physical), profiles=profiles.by_unit())
     return result.api_yield, cqa_vector(result, chain.process)
 
 
@@ -115,15 +128,18 @@ def evaluate_hard(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class ProfileStudy(Result):
-    """Trained temperature profiles against the baseline (the R1 jacket constant at the middle of
-    its PAR and the linear cooling ramp), both evaluated with hard spec checks (`evaluate_hard`);
+    """Trained temperature profiles against the baseline (the jacket of `jacket_unit`, the built-in's
+    R1, constant at the middle of its PAR, and the linear cooling ramp of `cooling_unit`, if any),
+    both evaluated with hard spec checks (`evaluate_hard`);
     the profiles sampled at `profile_times`; the training's steps, seconds and loss history; and
     the trained `profiles` (not in the JSON)."""
 
     baseline: dict
     trained: dict
+    jacket_unit: str
+    cooling_unit: str | None
     r1_jacket_profile: list
-    cooling_profile: list
+    cooling_profile: list | None
     profile_times: list
     train_steps: int
     train_seconds: float
@@ -157,8 +173,9 @@ def train_profiles(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters 
     return ProfileStudy(
         baseline=evaluate_hard(chain, cpps, physical, constant_profiles(profiles), **settings),
         trained=evaluate_hard(chain, cpps, physical, trained.params, **settings),
+        jacket_unit=trained.params.jacket_unit, cooling_unit=trained.params.cooling_unit,
         r1_jacket_profile=[float(trained.params.r1_jacket(s)) for s in samples],
-        cooling_profile=[float(trained.params.cooling(s)) for s in samples],
+        cooling_profile=None if trained.params.cooling is None else [float(trained.params.cooling(s)) for s in samples],
         profile_times=[float(s) for s in samples], train_steps=trained.steps_run, train_seconds=trained.seconds,
         compile_seconds=trained.compile_seconds, loss_history=trained.history.get("loss", []),
         profiles=trained.params, **settings)

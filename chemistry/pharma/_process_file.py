@@ -18,7 +18,8 @@ from ._ranges import ParameterRange, Specification
 from ._unit_catalogue import FLOWSHEET, UNIT_PARAMETERS, UNIT_ROLES
 
 BUILT_IN_PROCESS = pathlib.Path(str(files("chemistry.pharma") / "processes" / "api_chain.yaml"))
-CQA_UNITS = {"assay": "%", "mass_fraction": "%", "residual_solvent": "ppm", "d43": "um", "yield": "%"}
+CQA_UNITS = {"assay": "%", "purity": "%", "mass_fraction": "%", "residual_solvent": "ppm", "loss_on_drying": "%",
+             "d43": "um", "yield": "%"}
 """The unit each CQA of the vocabulary is computed in (a file's spec may use any unit that converts)."""
 TRACKED_ROLES = ("api", "impurity", "degradant")
 """The roles whose mass in the product the units track one species each of (a CQA's mass_fraction)."""
@@ -183,11 +184,14 @@ def _cqas(data, roles: dict, where) -> tuple[Specification, ...]:
 
 def _roles(data, where) -> dict:
     roles = {name: entry.role for name, entry in data.species.items()}
-    for role in ("api", "solvent", "impurity", "degradant"):
+    for role in ("api", "solvent", "impurity", "degradant", "antisolvent"):
         count = list(roles.values()).count(role)
-        if count != 1:
+        if count != 1 and (role != "antisolvent" or count > 1):
             raise InputError(f"{where('species')}: {count} species with the role {role!r}; the units track exactly one "
-                             "API, one solvent, one impurity and one degradant (more reagents and byproducts may run).")
+                             "API, one solvent, one impurity and one degradant, and at most one antisolvent (more "
+                             "reagents, intermediates and byproducts may run).")
+    if "antisolvent" not in roles.values() and any(u.type == "antisolvent_crystallizer" for u in data.units):
+        raise InputError(f"{where('species')}: an antisolvent_crystallizer needs a species with the role 'antisolvent'.")
     return roles
 
 

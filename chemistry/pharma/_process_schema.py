@@ -10,7 +10,7 @@ from snapo_ode import STRICT_SCHEMA, FiniteNumber
 Name = pydantic.constr(pattern=r"^[A-Za-z][A-Za-z0-9_]{0,39}$")  # a unit's or a CPP's name
 Value = FiniteNumber | pydantic.StrictStr  # a number in the model's unit, or "30 min"
 Pair = pydantic.conlist(FiniteNumber, min_length=2, max_length=2)
-ROLES = ("api", "impurity", "degradant", "solvent", "reagent", "byproduct")
+ROLES = ("api", "impurity", "degradant", "solvent", "antisolvent", "reagent", "intermediate", "byproduct")
 
 
 class _Section(pydantic.BaseModel):
@@ -79,7 +79,8 @@ class CQAEntry(_Section):
     {mass_fraction: species}), its spec `low` and/or `high` and `unit`."""
 
     name: Name
-    definition: Literal["assay", "residual_solvent", "d43", "yield"] | dict[Literal["mass_fraction"], pydantic.StrictStr]
+    definition: (Literal["assay", "purity", "residual_solvent", "loss_on_drying", "d43", "yield"]
+                  | dict[Literal["mass_fraction"], pydantic.StrictStr])
     unit: pydantic.StrictStr
     low: FiniteNumber | None = None
     high: FiniteNumber | None = None

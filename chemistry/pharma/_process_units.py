@@ -8,7 +8,8 @@ from typing import Callable
 from chemistry import Mechanism
 from snapo_ode import InputError
 
-from ._crystallizer import CoolingCrystallizer, Crystallizer, EquilibriumIsolation
+from ._crystallizer import AntisolventCrystallizer, CoolingCrystallizer, Crystallizer, EquilibriumIsolation
+from ._cstr import SteadyStateCSTR
 from ._dryer import Dryer
 from ._filter import Filter
 from ._liquid import HoldReactor, LiquidBatch, SynthesisReactor
@@ -21,7 +22,11 @@ def _plug_flow(chain, unit, mechanism, profile):
 
 
 def _batch(chain, unit, mechanism, profile):
-    return HoldReactor(LiquidBatch(mechanism, False))
+    return HoldReactor(LiquidBatch(mechanism, False), profile)
+
+
+def _cstr(chain, unit, mechanism, profile):
+    return SteadyStateCSTR(mechanism)
 
 
 def _cooling_crystallizer(chain, unit, mechanism, profile):
@@ -34,6 +39,13 @@ def _cooling_crystallizer(chain, unit, mechanism, profile):
                                roles, profile)
 
 
+def _antisolvent_crystallizer(chain, unit, mechanism, profile):
+    roles, scene = chain.roles, chain.scene
+    incorporated = (chain.masses[roles.impurity], chain.masses[roles.degradant])
+    physics = Crystallizer(chain.masses[roles.api], scene.has("impurity_incorporation"), incorporated)
+    return AntisolventCrystallizer(physics, chain.mechanism.molar_volumes, roles, roles.antisolvent, profile)
+
+
 def _filter(chain, unit, mechanism, profile):
     return Filter(chain.molar_masses, chain.roles)
 
@@ -42,8 +54,9 @@ def _dryer(chain, unit, mechanism, profile):
     return Dryer(chain.scene.has("degradation")) if chain.scene.has("drying") else None
 
 
-BUILDERS: dict[str, Callable] = {"plug_flow_reactor": _plug_flow, "batch_reactor": _batch,
-                                 "cooling_crystallizer": _cooling_crystallizer, "filter": _filter, "dryer": _dryer}
+BUILDERS: dict[str, Callable] = {"plug_flow_reactor": _plug_flow, "batch_reactor": _batch, "cstr": _cstr,
+                                 "cooling_crystallizer": _cooling_crystallizer,
+                                 "antisolvent_crystallizer": _antisolvent_crystallizer, "filter": _filter, "dryer": _dryer}
 """type -> build(chain, unit, mechanism, profile) -> the unit (or None: left out of the scene)."""
 
 

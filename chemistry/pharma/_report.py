@@ -79,6 +79,9 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
                  uncertain_text=", ".join(space["uncertain"]))
     values = study["cpps"]
     return {
+        "process": {"name": chain.process.name, "description": chain.process.description,
+                    "units": " -> ".join(f"{u.name} ({u.type})" for u in chain.process.units),
+                    "first_reactor": chain.process.units[0].name},
         "operating_point": {r.name: {"unit": r.unit, "value": values[r.name], "nominal": r.nominal, "nor": list(r.nor),
                                      "par": list(r.par), "description": r.description} for r in chain.cpp_ranges},
         "specifications": {s.name: {"unit": s.unit, "low": None if np.isinf(s.low) else s.low,
@@ -147,10 +150,11 @@ def pharma_report(data: dict, provenance: dict) -> Report:
     """The report's content (`_report_content`) over `data`."""
     from ._report_content import sections
 
-    return Report(name="pharma", title="API manufacturing chain: ICH Q8 sensitivity and design-space report",
+    return Report(name="pharma", title=f"{data['process']['name']}: ICH Q8 sensitivity and design-space report",
                   data=data, provenance=provenance, sections=sections(data),
-                  subtitle=("Four units, R1 to the dryer, at the operating point below; every number from one run, "
-                            "computed at ", snapo_ode.Value(("provenance", "timestamp_utc")), "."),
+                  subtitle=("The process ", snapo_ode.Value(("process", "units")), " at the operating point below; "
+                            "every number from one run, computed at ", snapo_ode.Value(("provenance", "timestamp_utc")),
+                            "."),
                   warnings=tuple(data["sensitivities"]["warnings"]),
                   csv={"sensitivities.csv": sensitivity_rows(data), "design_space.csv": design_space_rows(data)})
 

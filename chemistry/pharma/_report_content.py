@@ -43,8 +43,8 @@ def executive_summary(data: dict) -> Section:
           V(("design_space", "verification_count"), "d"), " points")),
         ("Sensitivities against central differences", V(("verification", "max_rel_diff_fd"), ".1e"),
          ("largest relative difference, CPP block",)),
-        ("R1 against Cantera", V(("verification", "cantera_r1_amounts"), ".1e"),
-         ("largest relative difference of the outlet amounts",)),
+        ("First reactor against Cantera", V(("verification", "cantera_r1_amounts"), ".1e"),
+         ("largest relative difference of ", V(("process", "first_reactor")), "'s outlet amounts")),
         ("Solver error against the reference", V(("verification", "reference_rel_error"), ".1e"),
          ("sensitivities, relative",)),
     ))
@@ -171,9 +171,10 @@ def methods_section(data: dict) -> Section:
         ("CQAs against the reference solver, relative", V((*ver, "reference_cqa_rel_error"), ".2e")),
         ("rates of progress against Cantera, relative", V((*ver, "cantera_rates_of_progress"), ".2e")),
         ("net production rates against Cantera, relative", V((*ver, "cantera_net_production"), ".2e")),
-        ("R1 outlet amounts against Cantera's reactor, relative", V((*ver, "cantera_r1_amounts"), ".2e")),
-        ("R1 outlet temperature against Cantera's reactor, relative", V((*ver, "cantera_r1_temperature"), ".2e")),
-        ("R1 stiffness ratio at the feed", V((*ver, "r1_stiffness_ratio"), ".3g"))), ("Verification evidence",))
+        ("first reactor's outlet amounts against Cantera's reactor, relative", V((*ver, "cantera_r1_amounts"), ".2e")),
+        ("first reactor's outlet temperature against Cantera's reactor, relative",
+         V((*ver, "cantera_r1_temperature"), ".2e")),
+        ("first reactor's stiffness ratio at the feed", V((*ver, "r1_stiffness_ratio"), ".3g"))), ("Verification evidence",))
     timings = Table(("step", "seconds"), (
         ("sensitivities, median of the timed calls", V(("timings", "seconds_median"), ".4g")),
         ("sensitivities, compile (first call less the median)", V(("timings", "compile_seconds"), ".4g")),
@@ -183,11 +184,10 @@ def methods_section(data: dict) -> Section:
         ("everything computed for this report", V(("timings", "total_seconds"), ".4g"))), ("Timings",))
     return Section("Methods", (
         Heading("Model"),
-        Paragraph(("The chain R1 (jacketed plug-flow synthesis, energy balance) to R2 (isothermal hold) to a seeded "
-                   "cooling crystallizer (moments of the size distribution) to a filter and a dryer (first-order "
-                   "solvent removal, degradation in the solid) is one differentiable program: each unit is an ODE "
-                   "solve, the kinetics are read from the Cantera YAML mechanism whose SHA-256 is under Provenance. "
-                   "The CQAs are those of the dried product."),),
+        Paragraph(("The process ", V(("process", "units")), " (", V(("process", "description")), ") is one "
+                   "differentiable program: each unit is an ODE solve or an algebraic step, the kinetics are read "
+                   "from the Cantera YAML mechanism and the process from its file, whose SHA-256 are under "
+                   "Provenance. The CQAs are those of the product as the last unit gives it."),),
         Heading("Sensitivities"),
         Paragraph(("The Jacobian of the CQAs with respect to every input (CPPs, rate parameters, physical "
                    "parameters) is taken in ", V(("sensitivities", "mode")), " mode, ",

@@ -94,9 +94,10 @@ class SensitivityStudy(Result):
         lines = [f"CQA sensitivities to CPPs ({self.mode} mode, {self.passes} passes): "
                  f"{1e3 * self.seconds_median:.1f} ms median, {self.compile_seconds:.1f} s compile"]
         cpps = list(self.cpps)
-        lines.append(f"{'CQA':<20}{'value':>12}  " + "".join(f"{n:>20}" for n in cpps))
+        width = max(20, *(len(n) + 2 for n in cpps))
+        lines.append(f"{'CQA':<20}{'value':>12}  " + "".join(f"{n:>{width}}" for n in cpps))
         for cqa in self.cqas:
-            row = "".join(f"{self.normalized[cqa][n]:>20.4g}" for n in cpps)
+            row = "".join(f"{self.normalized[cqa][n]:>{width}.4g}" for n in cpps)
             lines.append(f"{cqa:<20}{self.cqas[cqa]:>12.5g}  {row}")
         lines.append("(normalised: d ln CQA / d ln CPP)")
         if self.max_rel_diff_fd is not None:

@@ -64,28 +64,55 @@ def r1_outlet(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
     return chain.r1(inputs)(chain.feed(inputs), r1, active.rates, chain.solver)
 
 
-def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, rtol=1e-11):
-    """R1 integrated by Cantera: (amounts per m^3 of feed volume, T [K]) at the outlet."""
+def cantera_reactor(chain: PharmaChain, inputs, name: str, *, rtol=1e-11):
+    """The reactor `name` of `chain`'s process integrated by Cantera's own reactor from the same
+    inlet (the feed, or the outlet of the unit before it): (amounts per m^3 of the first feed's
+    volume, T [K]) at its outlet. A plug-flow reactor is a `ConstPressureReactor` for its
+    residence time with a wall to a reservoir at the jacket temperature (energy on with the
+    energy balance), a batch reactor one at its temperature for its time, a CSTR one fed and
+    emptied by two mass-flow controllers at rho V / tau, run for 60 residence times (its
+    transients decay at least as e^-t/tau: Cantera's `advance_to_steady_state` stopped short of a
+    residual of 1e-14)."""
     import cantera
 
-    inputs, _, r1 = _r1(chain, cpps, physical)
-    feed = np.asarray(chain.feed(inputs).amounts)
-    liquid = cantera.Solution(str(path))
-    temperature = float(r1["temperature"])
-    liquid.TPX = temperature, cantera.one_atm, feed / feed.sum()
+    names = [unit.name for unit in chain.process.units]
+    kind = chain.process.units[names.index(name)].type
+    position = names.index(name)
+    inlet = chain.feed(inputs) if position == 0 else chain.simulate(inputs).outlets[names[position - 1]]
+    amounts, parameters = np.asarray(inlet.amounts), chain.unit_parameters(inputs)[name]
+    volume, temperature = float(amounts @ np.asarray(chain.mechanism.molar_volumes)), float(parameters["temperature"])
+    process = chain.process
+
+    def solution():
+        liquid = cantera.Solution(process.mechanism, process.phase or "")
+        liquid.TPX = temperature, cantera.one_atm, amounts / amounts.sum()
+        return liquid
+
     # clone=False: in Cantera 3.2 a cloned ideal-condensed phase does not keep the state it was
     # given (its density and composition change), so each reactor gets its own Solution.
-    reactor = cantera.ConstPressureReactor(liquid, energy="on" if chain.scene.has("energy_balance") else "off",
-                                           clone=False)
-    reactor.volume = 1.0
-    outside = cantera.Solution(str(path))
-    outside.TPX = temperature, cantera.one_atm, feed / feed.sum()
-    jacket = cantera.Reservoir(outside, clone=False)
-    cantera.Wall(jacket, reactor, A=1.0, U=float(r1["jacket_ua"]))
+    energy = "on" if kind == "plug_flow_reactor" and chain.scene.has("energy_balance") else "off"
+    reactor = cantera.ConstPressureReactor(solution(), energy=energy, clone=False)
+    reactor.volume = volume
+    if kind == "plug_flow_reactor":
+        cantera.Wall(cantera.Reservoir(solution(), clone=False), reactor, A=volume, U=float(parameters["jacket_ua"]))
+    if kind == "cstr":
+        flow = reactor.phase.density * volume / (60.0 * float(parameters["residence_time"]))
+        cantera.MassFlowController(cantera.Reservoir(solution(), clone=False), reactor, mdot=flow)
+        cantera.MassFlowController(reactor, cantera.Reservoir(solution(), clone=False), mdot=flow)
     network = cantera.ReactorNet([reactor])
     network.rtol, network.atol = rtol, 1e-20
-    network.advance(60.0 * float(r1["residence_time"]))
+    if kind == "cstr":
+        network.advance(60.0 * 60.0 * float(parameters["residence_time"]))  # 60 residence times: transients e^-60
+    else:
+        network.advance(60.0 * float(parameters["residence_time"]) if kind == "plug_flow_reactor"
+                        else float(parameters["time"]))
     return reactor.phase.concentrations * reactor.volume, reactor.phase.T
+
+
+def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path=None, *, rtol=1e-11):
+    """The first reactor integrated by Cantera (`cantera_reactor`): (amounts per m^3 of feed
+    volume, T [K]) at the outlet."""
+    return cantera_reactor(chain, chain.inputs(cpps, physical=physical), chain.process.units[0].name, rtol=rtol)
 
 
 def cantera_check(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, n_states: int = 100) -> CanteraCheck:
