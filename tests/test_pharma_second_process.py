@@ -9,7 +9,7 @@ import pytest
 from chemistry.pharma import BUMP_SOLVER, CHAIN_SOLVER, PharmaChain, mass_balances, sensitivity_study
 from chemistry.pharma._verification import cantera_reactor
 
-PROCESS = "chemistry/pharma/processes/antisolvent_route.yaml"
+PROCESS = "antisolvent_route"  # a shipped process, by its name
 TIGHT = CHAIN_SOLVER.replace(rtol=1e-12, atol=1e-14, max_steps=20000)
 
 

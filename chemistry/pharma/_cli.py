@@ -13,8 +13,8 @@ from ._process_file import CPP_RANGES
 
 def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
     """The process, CPP values, solver tolerances and effects."""
-    parser.add_argument("--process", metavar="FILE", help="a process file (YAML, docs/pharma.md); default: the "
-                        "built-in chain, chemistry/pharma/processes/api_chain.yaml")
+    parser.add_argument("--process", metavar="FILE", help="a process file (YAML, docs/pharma.md) or the name of a "
+                        "shipped one (api_chain, antisolvent_route); default: the built-in chain, api_chain")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="settings",
                         help="set a CPP by name or target (r1_temperature=315, r1.temperature=315) or a physical "
                              "parameter (crystallizer.growth_rate=6e-8); the value may carry a unit ('0.5 h'); "

@@ -54,8 +54,12 @@ def molar_masses(spec: ProcessSpec) -> dict[str, float]:
 
 
 def load_process(path=None) -> ProcessSpec:
-    """The process file at `path` (default: the built-in `processes/api_chain.yaml`), read and
-    checked (`read_process_file`); its mechanism is checked when the chain is built."""
+    """The process file at `path` (default: the built-in `processes/api_chain.yaml`; the name of a
+    shipped process, such as "antisolvent_route", is found in `chemistry/pharma/processes`), read
+    and checked (`read_process_file`); its mechanism is checked when the chain is built."""
+    shipped = BUILT_IN_PROCESS.parent / f"{path}.yaml"
+    if path is not None and not pathlib.Path(path).exists() and shipped.is_file():
+        path = shipped
     if path is None or pathlib.Path(path).resolve() == BUILT_IN_PROCESS.resolve():
         return built_in_process()
     return read_process_file(path)
