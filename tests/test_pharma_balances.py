@@ -58,3 +58,38 @@ def test_the_check_catches_the_crystallizer_before_the_fix(chain):
 
     assert unaccounted(fixed) <= ROUND_OFF
     assert unaccounted(before) >= 1e-4
+
+
+@settings(max_examples=3, deadline=None)
+@given(reactors=st.lists(st.sampled_from(["plug_flow_reactor", "batch_reactor", "cstr"]), min_size=1, max_size=2),
+       dryer=st.booleans(), temperature=st.floats(300.0, 330.0), hold=st.floats(600.0, 7200.0))
+def test_balances_close_on_random_flowsheets(reactors, dryer, temperature, hold):
+    """Processes generated from the built-in one: its mechanism, one or two reactors of any type
+    (the first one's temperature the CPP), the cooling crystallizer and the filter, a dryer or not."""
+    from chemistry import MECHANISMS
+    from chemistry.pharma import BUILT_IN_PROCESS, process_from_dict
+    from snapo_ode import strict_yaml
+
+    data = strict_yaml(BUILT_IN_PROCESS.read_text(), "the built-in process")
+    data["mechanism"]["file"] = str(MECHANISMS / "pharma.yaml")
+    parameters = {"plug_flow_reactor": {"jacket_ua": 2.0e4}, "batch_reactor": {"time": hold}, "cstr": {}}
+    time = {"plug_flow_reactor": "residence_time", "batch_reactor": "time", "cstr": "residence_time"}
+    units = []
+    for k, kind in enumerate(reactors):
+        unit = {"name": f"reactor{k}", "type": kind, **parameters[kind]}
+        if k:  # the first reactor's temperature and time are the CPPs r1_temperature and r1_residence_time
+            unit.update(temperature=temperature, **({time[kind]: 30.0} if kind != "batch_reactor" else {}))
+        units.append(unit)
+    data["units"] = units + data["units"][2:(5 if dryer else 4)]
+    data["cpps"][0]["target"], data["cpps"][1]["target"] = "reactor0.temperature", f"reactor0.{time[reactors[0]]}"
+    if reactors[0] == "batch_reactor":
+        units[0].pop("time")
+        data["cpps"][1]["unit"] = "min"
+    if not dryer:
+        data["cpps"] = data["cpps"][:3]
+        data["cqas"] = [c for c in data["cqas"] if c["name"] != "residual_solvent"]
+    data["uncertain"] = [name for name in data["uncertain"] if not name.startswith("dryer.") or dryer]
+    chain = PharmaChain(process=process_from_dict(data, name="random flowsheet"), solver=BUMP_SOLVER)
+    residuals = mass_balances(chain, chain.inputs(chain.cpps()))
+    assert len(residuals) == len(reactors) + 2 + dryer
+    assert max(float(r) for r in residuals.values()) <= ROUND_OFF, residuals

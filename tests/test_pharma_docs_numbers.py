@@ -45,3 +45,19 @@ def test_the_mechanisms_own_description_states_its_equilibrium(constants):
     description = (MECHANISMS / "pharma.yaml").read_text()
     (equilibrium,) = _number(r"K = k\(A=>X\) / k\(X=>A\) = ([\d.]+) at 313 K", description)
     assert equilibrium == pytest.approx(forward / backward, abs=5e-4)
+
+
+def test_the_docs_tables_of_cpps_and_cqas_are_the_process_file_s():
+    """docs/pharma.md's CPP and CQA tables against the built-in process file, row by row."""
+    from chemistry.pharma import BUILT_IN_PROCESS, read_process_file
+
+    spec = read_process_file(BUILT_IN_PROCESS)
+    docs = (ROOT / "docs" / "pharma.md").read_text()
+    for cpp in spec.cpps:
+        row = _number(rf"\| {cpp.name} \| [^|]+ \| ([\d.]+) \| ([\d.]+)-([\d.]+) \| ([\d.]+)-([\d.]+) \|", docs)
+        assert row == pytest.approx([cpp.nominal, *cpp.nor, *cpp.par]), cpp.name
+    for cqa in spec.cqas:
+        cell = re.search(rf"\| {cqa.name}[^|]* \| [^|]+ \| ([^|]+) \|", docs)
+        assert cell, cqa.name
+        stated = [limit for limit in (cqa.low, cqa.high) if abs(limit) != float("inf")]
+        assert [float(x) for x in re.findall(r"[\d.]+", cell.group(1))[:len(stated)]] == pytest.approx(stated), cqa.name

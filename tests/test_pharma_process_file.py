@@ -71,7 +71,7 @@ def test_set_names_a_cpp_by_name_or_target_and_a_parameter_with_its_unit():
 
 BAD_FILES = [
     ("type: cooling_crystallizer", "type: msmpr_crystallizer", r"line 38: units\[crystallizer\].type = 'msmpr"),
-    ("  X: {role: byproduct}", "", "species 'X' of the mechanism has no role"),
+    ("  X: {role: byproduct}", "", "line 16: species 'X' of the mechanism has no role"),
     ("target: dryer.temperature", "target: dryer.pressure", r"line 75: cpps\[dryer_temperature\].target"),
     ("definition: {mass_fraction: I}", "definition: {mass_fraction: Q}", r"line 80: .*mass_fraction: Q"),
     ("nor: [0.4, 0.6]", "nor: [0.2, 0.6]", r"line 73: cpps\[cooling_rate\].*nor inside par"),

@@ -9,7 +9,7 @@ import cantera
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import InputError, check_range
+from snapo_ode import InputError, check_range, line_of
 
 from ._parameters import CPPs, PhysicalParameters
 from ._process_file import BUILT_IN_PROCESS, ProcessSpec, built_in_process, read_process_file
@@ -24,10 +24,19 @@ def _solution(spec: ProcessSpec):
         raise InputError(f"{where} does not load in Cantera ({message}).") from None
 
 
+def _where(spec: ProcessSpec, key: str) -> str:
+    """"process file F, line N" of the first `key:` in the process's file (a process given as a
+    dict: "process NAME")."""
+    path = pathlib.Path(spec.path)
+    if not path.is_file():
+        return f"process {spec.path}"
+    return f"process file {path}{line_of(path.read_text(errors='replace'), [key])}"
+
+
 def check_mechanism(spec: ProcessSpec, species_names, reaction_equations, thermo_model: str) -> None:
     """Refuse a process whose mechanism lacks what the file names, or names a species without a
-    role. **Raises:** `InputError` naming the process file and the species or reaction."""
-    where = f"process {spec.path}"
+    role. **Raises:** `InputError` naming the process file, the line and the species or reaction."""
+    where = _where(spec, "species")
     for name in species_names:
         if name not in spec.roles:
             raise InputError(f"{where}: species {name!r} of the mechanism has no role; give it one under species "
@@ -37,6 +46,7 @@ def check_mechanism(spec: ProcessSpec, species_names, reaction_equations, thermo
             raise InputError(f"{where}: species {name!r} is not in the mechanism (species: {', '.join(species_names)}).")
     named = [*spec.reaction_effects, *(spec.equilibrium or ())]
     named += [n[len("log_multiplier["):-1] for n in spec.uncertain if n.startswith("log_multiplier[")]
+    where = _where(spec, "mechanism")
     for equation in named:
         if equation not in reaction_equations:
             raise InputError(f"{where}: reaction {equation!r} is not in the mechanism (reactions: "
