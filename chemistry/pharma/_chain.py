@@ -21,8 +21,8 @@ from snapo_ode import EffectCatalogue, Scene, Solver, SolverSettings, solver_fro
 from ..kinetics._types import Scalar, Vector
 from ._crystallizer import CrystallizerOutlet, SpeciesRoles
 from ._parameters import ChainInputs, CPPs, PhysicalParameters
-from ._process import check_mechanism, load_process, make_cpps, molar_masses, physical_parameters
-from ._process_file import ProcessSpec
+from ._process import check_mechanism, make_cpps, molar_masses, physical_parameters
+from ._process_file import ProcessSpec, load_process
 from ._profiles import AbstractTemperatureProfile
 from ._unit import AbstractUnit, Liquid, Solids
 

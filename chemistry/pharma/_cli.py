@@ -107,13 +107,18 @@ def run_train(args) -> int:
 
 
 def _space_options(args) -> dict:
-    """The design space's options, checked (before anything is computed), and the mesh."""
+    """The design space's options, checked against the process's CPPs (read from its file, before
+    anything is built or computed), and the mesh."""
     from ._design_space import DesignSpaceSettings
+    from ._process_file import load_process
 
-    settings = DesignSpaceSettings(x=args.x, y=args.y, points=args.points, samples=args.samples, sigma=args.sigma,
+    names = tuple(spec.name for spec in load_process(args.process).cpps)
+    settings = DesignSpaceSettings(x=args.x, y=args.y, cpp_names=names, points=args.points, samples=args.samples, sigma=args.sigma,
                                    seed=args.seed, level=args.level, verify_points=args.verify_points,
                                    surrogate_samples=args.surrogate_samples, curvature_points=args.curvature_points)
-    return {**settings.as_dict(), "mesh": args.mesh}
+    options = settings.as_dict()
+    del options["cpp_names"]  # the chain's own
+    return {**options, "mesh": args.mesh}
 
 
 def run_design_space(args) -> int:

@@ -32,6 +32,7 @@ from ._chain import PharmaChain
 from ._cqa import meets_specs, spec_margins
 from ._design_edges import acceptable_range, choose_verification_points, probability_se
 from ._parameters import ChainInputs, CPPs
+from ._process_file import CPP_NAMES
 from ._sensitivities import input_names, jacobians_function, rate_names, shifted_cqas
 from ._surrogate import (
     curvature, grid_inputs, input_offsets, interpolate, log_scales, log_sensitivities, surrogate_cqas)
@@ -106,6 +107,9 @@ class DesignSpaceSettings(Settings):
 
     x: str | None = eqx.field(static=True, default=None)
     y: str | None = eqx.field(static=True, default=None)
+    cpp_names: tuple[str, ...] | None = eqx.field(static=True, default=None)
+    """The process's CPPs, which `x` and `y` must be among (default: the built-in's); `x` and `y`
+    default to the first and the last."""
     points: int = eqx.field(static=True, default=21)
     level: float = eqx.field(static=True, default=0.95)
     sigma: float = eqx.field(static=True, default=0.1)
@@ -116,8 +120,9 @@ class DesignSpaceSettings(Settings):
     curvature_points: int = eqx.field(static=True, default=6)
 
     def __check_init__(self):
-        if self.x is not None and self.x == self.y:
-            raise InputError(f"x = y = {self.x!r}; allowed: two different CPPs.")
+        names = CPP_NAMES if self.cpp_names is None else self.cpp_names
+        x = check_choice("x", names[0] if self.x is None else self.x, names)
+        check_choice("y", names[-1] if self.y is None else self.y, tuple(n for n in names if n != x))
         check_count("points", self.points, 3, 201)
         check_count("samples", self.samples, 2, 100_000)
         check_count("surrogate_samples", self.surrogate_samples, 2, 1_000_000)
@@ -151,13 +156,11 @@ def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None 
 
     **Raises:** `InputError` for an unknown CPP, equal x and y, a bad size or level.
     """
-    DesignSpaceSettings(x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
+    DesignSpaceSettings(x=x, y=y, cpp_names=chain.cpp_names, points=points, level=level, sigma=sigma, seed=seed,
                         surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
                         curvature_points=curvature_points)
     names, cqa_names = chain.cpp_names, chain.cqa_names
     x, y = names[0] if x is None else x, names[-1] if y is None else y
-    check_choice("x", x, names)
-    check_choice("y", y, tuple(n for n in names if n != x))
     inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
     cpps, ranges = inputs.cpps, {r.name: r for r in chain.cpp_ranges}
     xs, ys = np.linspace(*ranges[x].par, points), np.linspace(*ranges[y].par, points)

@@ -12,7 +12,7 @@ import numpy as np
 from snapo_ode import InputError, check_range, line_of
 
 from ._parameters import CPPs, PhysicalParameters
-from ._process_file import BUILT_IN_PROCESS, ProcessSpec, built_in_process, read_process_file
+from ._process_file import ProcessSpec, built_in_process
 
 
 def _solution(spec: ProcessSpec):
@@ -61,18 +61,6 @@ def molar_masses(spec: ProcessSpec) -> dict[str, float]:
     solution = _solution(spec)
     return {name: spec.molar_masses.get(name, float(mass))
             for name, mass in zip(solution.species_names, solution.molecular_weights, strict=True)}
-
-
-def load_process(path=None) -> ProcessSpec:
-    """The process file at `path` (default: the built-in `processes/api_chain.yaml`; the name of a
-    shipped process, such as "antisolvent_route", is found in `chemistry/pharma/processes`), read
-    and checked (`read_process_file`); its mechanism is checked when the chain is built."""
-    shipped = BUILT_IN_PROCESS.parent / f"{path}.yaml"
-    if path is not None and not pathlib.Path(path).exists() and shipped.is_file():
-        path = shipped
-    if path is None or pathlib.Path(path).resolve() == BUILT_IN_PROCESS.resolve():
-        return built_in_process()
-    return read_process_file(path)
 
 
 def make_cpps(process: ProcessSpec | None = None, **values: float) -> CPPs:

@@ -253,6 +253,18 @@ def built_in_process() -> ProcessSpec:
     return read_process_file(BUILT_IN_PROCESS)
 
 
+def load_process(path=None) -> ProcessSpec:
+    """The process file at `path` (default: the built-in `processes/api_chain.yaml`; the name of a
+    shipped process, such as "antisolvent_route", is found in `chemistry/pharma/processes`), read
+    and checked (`read_process_file`); its mechanism is checked when the chain is built."""
+    shipped = BUILT_IN_PROCESS.parent / f"{path}.yaml"
+    if path is not None and not pathlib.Path(path).exists() and shipped.is_file():
+        path = shipped
+    if path is None or pathlib.Path(path).resolve() == BUILT_IN_PROCESS.resolve():
+        return built_in_process()
+    return read_process_file(path)
+
+
 _BUILT_IN_NAMES = {"CPP_RANGES": lambda spec: spec.cpps, "CPP_NAMES": lambda spec: tuple(r.name for r in spec.cpps),
                    "CQA_SPECS": lambda spec: spec.cqas, "CQA_NAMES": lambda spec: tuple(s.name for s in spec.cqas)}
 
