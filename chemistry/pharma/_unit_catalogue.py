@@ -23,6 +23,27 @@ class Parameter(NamedTuple):
 
 POSITIVE_FRACTION = (0.0, 1.0)
 
+SOLUBILITY = {
+    "solubility_ref": Parameter("kmol/m^3", "the API's solubility at solubility_ref_temperature (van 't Hoff; without "
+                                "antisolvent)"),
+    "solubility_ref_temperature": Parameter("K", "reference temperature of the solubility and growth rate"),
+    "solubility_enthalpy": Parameter("J/kmol", "van 't Hoff enthalpy of dissolution"),
+}
+CRYSTALS = {
+    "growth_rate": Parameter("m/s", "growth rate constant k_g at the reference temperature"),
+    "growth_order": Parameter("", "growth order g in G = k_g S^g"),
+    "growth_activation": Parameter("J/kmol", "growth activation energy"),
+    "nucleation_rate": Parameter("1/s", "secondary nucleation k_b (per m^3 of crystals per m^3)"),
+    "nucleation_order": Parameter("", "nucleation order b in B = k_b S^b k_v mu_3"),
+    "seed_loading": Parameter("kg/m^3", "seed crystals per volume of liquor"),
+    "seed_size": Parameter("m", "seed crystal size"),
+    "crystal_density": Parameter("kg/m^3", "crystal density"),
+    "shape_factor": Parameter("", "volume shape factor k_v (spheres: pi/6)"),
+    "partition_impurity": Parameter("", "impurity/API mole ratio in the growing crystal over that in the liquor"),
+    "partition_degradant": Parameter("", "degradant/API mole ratio in the growing crystal over that in the liquor"),
+}
+"""The crystallizers' shared parameters: solubility, growth and nucleation laws, seeds, crystals."""
+
 UNIT_PARAMETERS = {
     "plug_flow_reactor": {
         "temperature": Parameter("K", "jacket temperature (the feed enters at it)"),
@@ -35,47 +56,22 @@ UNIT_PARAMETERS = {
     },
     "cstr": {
         "temperature": Parameter("K", "jacket temperature (isothermal)"),
-        "residence_time": Parameter("min", "residence time V / Q"),
+        "residence_time": Parameter("min", "residence time: hold-up mass over mass flow"),
     },
     "cooling_crystallizer": {
         "final_temperature": Parameter("K", "temperature at the end of the cooling (from the inlet's)"),
         "cooling_rate": Parameter("K/min", "linear cooling rate"),
-        "solubility_ref": Parameter("kmol/m^3", "the API's solubility at solubility_ref_temperature (van 't Hoff)"),
-        "solubility_ref_temperature": Parameter("K", "reference temperature of the solubility and growth rate"),
-        "solubility_enthalpy": Parameter("J/kmol", "van 't Hoff enthalpy of dissolution"),
-        "growth_rate": Parameter("m/s", "growth rate constant k_g at the reference temperature"),
-        "growth_order": Parameter("", "growth order g in G = k_g S^g"),
-        "growth_activation": Parameter("J/kmol", "growth activation energy"),
-        "nucleation_rate": Parameter("1/s", "secondary nucleation k_b (per m^3 of crystals per m^3)"),
-        "nucleation_order": Parameter("", "nucleation order b in B = k_b S^b k_v mu_3"),
-        "seed_loading": Parameter("kg/m^3", "seed crystals per volume of liquor"),
-        "seed_size": Parameter("m", "seed crystal size"),
-        "crystal_density": Parameter("kg/m^3", "crystal density"),
-        "shape_factor": Parameter("", "volume shape factor k_v (spheres: pi/6)"),
-        "partition_impurity": Parameter("", "impurity/API mole ratio in the growing crystal over that in the liquor"),
-        "partition_degradant": Parameter("", "degradant/API mole ratio in the growing crystal over that in the liquor"),
+        **SOLUBILITY, **CRYSTALS,
     },
     "antisolvent_crystallizer": {
         "temperature": Parameter("K", "crystallizer temperature"),
         "antisolvent_ratio": Parameter("", "m^3 of antisolvent added per m^3 of liquor"),
         "addition_time": Parameter("min", "time over which the antisolvent is added, at a constant rate"),
-        "solubility_ref": Parameter("kmol/m^3", "the API's solubility without antisolvent at solubility_ref_temperature"),
-        "solubility_ref_temperature": Parameter("K", "reference temperature of the solubility and growth rate"),
-        "solubility_enthalpy": Parameter("J/kmol", "van 't Hoff enthalpy of dissolution"),
+        **SOLUBILITY,
         "antisolvent_linear": Parameter("", "a in C* = C*(T) exp(-(a w + b w^2)), w the antisolvent's volume fraction",
                                         -np.inf),
         "antisolvent_quadratic": Parameter("", "b in C* = C*(T) exp(-(a w + b w^2))", -np.inf),
-        "growth_rate": Parameter("m/s", "growth rate constant k_g at the reference temperature"),
-        "growth_order": Parameter("", "growth order g in G = k_g S^g"),
-        "growth_activation": Parameter("J/kmol", "growth activation energy"),
-        "nucleation_rate": Parameter("1/s", "secondary nucleation k_b (per m^3 of crystals per m^3)"),
-        "nucleation_order": Parameter("", "nucleation order b in B = k_b S^b k_v mu_3"),
-        "seed_loading": Parameter("kg/m^3", "seed crystals per volume of liquor"),
-        "seed_size": Parameter("m", "seed crystal size"),
-        "crystal_density": Parameter("kg/m^3", "crystal density"),
-        "shape_factor": Parameter("", "volume shape factor k_v (spheres: pi/6)"),
-        "partition_impurity": Parameter("", "impurity/API mole ratio in the growing crystal over that in the liquor"),
-        "partition_degradant": Parameter("", "degradant/API mole ratio in the growing crystal over that in the liquor"),
+        **CRYSTALS,
     },
     "filter": {
         "cake_liquor": Parameter("", "kg of liquor the cake keeps per kg of crystals"),
