@@ -195,3 +195,17 @@ def test_a_failed_solve_raises_with_advice_either_way(physical):
     # A plain call afterwards raises inside the program: it does not reuse the checked trace.
     with pytest.raises(Exception, match="max_steps"):
         jax.block_until_ready(Dryer(True).dry(*args))
+
+
+@pytest.mark.parametrize("unit", ["r1", "r2"])
+def test_every_reactor_agrees_with_cantera_s_own(physical, unit):
+    from chemistry.pharma._verification import cantera_reactor
+
+    chain = PharmaChain(solver=TIGHT)
+    inputs = chain.inputs(make_cpps(r1_temperature=318.15), physical=physical)
+    theirs, temperature = cantera_reactor(chain, inputs, unit)
+    outlet = chain.simulate(inputs).outlets[unit]
+    ours = np.asarray(outlet.amounts)
+    significant = theirs > 1e-12 * theirs.max()
+    assert np.max(np.abs(ours - theirs)[significant] / theirs[significant]) <= 1e-8
+    assert float(outlet.temperature) == pytest.approx(temperature, rel=1e-9)
