@@ -265,13 +265,11 @@ def load_process(path=None) -> ProcessSpec:
     return read_process_file(path)
 
 
-_BUILT_IN_NAMES = {"CPP_RANGES": lambda spec: spec.cpps, "CPP_NAMES": lambda spec: tuple(r.name for r in spec.cpps),
-                   "CQA_SPECS": lambda spec: spec.cqas, "CQA_NAMES": lambda spec: tuple(s.name for s in spec.cqas)}
-
-
-def __getattr__(name: str):
-    """The built-in process's `CPP_RANGES`, `CPP_NAMES`, `CQA_SPECS` and `CQA_NAMES`, read on first
-    use (without Cantera or JAX, so that the CLI builds its options quickly)."""
-    if name in _BUILT_IN_NAMES:
-        return _BUILT_IN_NAMES[name](built_in_process())
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+BUILT_IN = built_in_process()
+CPP_RANGES = BUILT_IN.cpps
+"""The built-in process's CPPs (`ParameterRange`), read from its file without Cantera or JAX (the
+CLI builds its options from them)."""
+CPP_NAMES = tuple(spec.name for spec in CPP_RANGES)
+CQA_SPECS = BUILT_IN.cqas
+"""The built-in process's CQAs (`Specification`)."""
+CQA_NAMES = tuple(spec.name for spec in CQA_SPECS)
