@@ -59,22 +59,14 @@ def mass_balances(chain: PharmaChain, inputs: ChainInputs) -> dict[str, jnp.ndar
         elif isinstance(outlet, Slurry):
             # The crystals' growth (the seeds aside) is the API, impurity and degradant the liquor lost
             # (the impurity and degradant are counted as they leave it: `impurity_solid`).
-            crystals, fed = outlet.crystals, outlet.liquor
+            crystals, held = outlet.crystals, outlet.crystal_masses(masses, roles)
             seeds = 0.0 if isinstance(unit, EquilibriumIsolation) else parameters[name]["seed_loading"]
-            incorporated = masses[roles.impurity] * crystals.impurity_solid + masses[roles.degradant] * crystals.degradant_solid
-            lost = (fed[roles.api] - crystals.api) * masses[roles.api] + incorporated
+            lost = (outlet.liquor[roles.api] - crystals.api) * masses[roles.api] + held[roles.impurity] + held[roles.degradant]
             residuals[name] = _relative(crystals.crystal_mass - seeds - lost, crystals.crystal_mass)
         elif isinstance(unit, Filter):
             streams = unit.streams(inlet, parameters[name])
-            crystals = inlet.crystals
-            held = jnp.zeros_like(masses).at[roles.api].add(
-                crystals.crystal_mass - masses[roles.impurity] * crystals.impurity_solid
-                - masses[roles.degradant] * crystals.degradant_solid).at[roles.impurity].add(
-                masses[roles.impurity] * crystals.impurity_solid).at[roles.degradant].add(
-                masses[roles.degradant] * crystals.degradant_solid)
-            final = (inlet.liquor.at[roles.api].set(crystals.api).at[roles.impurity].add(-crystals.impurity_solid)
-                     .at[roles.degradant].add(-crystals.degradant_solid)) * masses
-            into = _groups(held + final, roles).at[4].add(streams.wash)
+            into = _groups(inlet.crystal_masses(masses, roles) + inlet.final_liquor(roles) * masses, roles)
+            into = into.at[4].add(streams.wash)
             residuals[name] = _relative(_solids(streams.cake) + _groups(streams.filtrate, roles) - into, into)
         else:  # a dryer: the solids stay, the solvent only leaves
             before, after = _solids(inlet), _solids(outlet)

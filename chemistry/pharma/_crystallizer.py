@@ -64,6 +64,22 @@ class Slurry(NamedTuple):
     liquor: Vector
     crystals: CrystallizerOutlet
 
+    def final_liquor(self, roles: "SpeciesRoles") -> Vector:
+        """The liquor at the end [kmol per m^3 of liquor]: the fed liquor less what the crystals
+        took (the API down to what stays dissolved, the impurity and degradant they took up)."""
+        crystals = self.crystals
+        return (self.liquor.at[roles.api].set(crystals.api).at[roles.impurity].add(-crystals.impurity_solid)
+                .at[roles.degradant].add(-crystals.degradant_solid))
+
+    def crystal_masses(self, molar_masses: Vector, roles: "SpeciesRoles") -> Vector:
+        """What the crystals hold [kg per m^3 of liquor] by species, shape (n_species,): the
+        impurity and degradant they took up, the API the rest of their mass."""
+        crystals = self.crystals
+        impurity = molar_masses[roles.impurity] * crystals.impurity_solid
+        degradant = molar_masses[roles.degradant] * crystals.degradant_solid
+        return (jnp.zeros_like(molar_masses).at[roles.api].set(crystals.crystal_mass - impurity - degradant)
+                .at[roles.impurity].set(impurity).at[roles.degradant].set(degradant))
+
 
 class SpeciesRoles(NamedTuple):
     """Where the API `api`, the impurity `impurity`, the degradant `degradant`, the `solvent` and

@@ -119,10 +119,16 @@ class DesignSpaceSettings(Settings):
     samples: int = eqx.field(static=True, default=1000)
     curvature_points: int = eqx.field(static=True, default=6)
 
-    def __check_init__(self):
+    @property
+    def axes(self) -> tuple[str, str]:
+        """(x, y): as given, or the process's first and last CPP."""
         names = CPP_NAMES if self.cpp_names is None else self.cpp_names
-        x = check_choice("x", names[0] if self.x is None else self.x, names)
-        check_choice("y", names[-1] if self.y is None else self.y, tuple(n for n in names if n != x))
+        return names[0] if self.x is None else self.x, names[-1] if self.y is None else self.y
+
+    def __check_init__(self):
+        names, (x, y) = CPP_NAMES if self.cpp_names is None else self.cpp_names, self.axes
+        check_choice("x", x, names)
+        check_choice("y", y, tuple(n for n in names if n != x))
         check_count("points", self.points, 3, 201)
         check_count("samples", self.samples, 2, 100_000)
         check_count("surrogate_samples", self.surrogate_samples, 2, 1_000_000)
@@ -156,11 +162,10 @@ def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None 
 
     **Raises:** `InputError` for an unknown CPP, equal x and y, a bad size or level.
     """
-    DesignSpaceSettings(x=x, y=y, cpp_names=chain.cpp_names, points=points, level=level, sigma=sigma, seed=seed,
-                        surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
-                        curvature_points=curvature_points)
-    names, cqa_names = chain.cpp_names, chain.cqa_names
-    x, y = names[0] if x is None else x, names[-1] if y is None else y
+    settings = DesignSpaceSettings(x=x, y=y, cpp_names=chain.cpp_names, points=points, level=level, sigma=sigma,
+                                   seed=seed, surrogate_samples=surrogate_samples, verify_points=verify_points,
+                                   samples=samples, curvature_points=curvature_points)
+    names, cqa_names, (x, y) = chain.cpp_names, chain.cqa_names, settings.axes
     inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
     cpps, ranges = inputs.cpps, {r.name: r for r in chain.cpp_ranges}
     xs, ys = np.linspace(*ranges[x].par, points), np.linspace(*ranges[y].par, points)

@@ -38,18 +38,15 @@ class Filter(AbstractUnit):
         crystals, roles = inlet.crystals, self.roles
         p, i, d = roles.api, roles.impurity, roles.degradant
         liquid = parameters["cake_liquor"] * crystals.crystal_mass  # [kg] of liquid the cake keeps
-        final_liquor = (inlet.liquor.at[p].set(crystals.api)
-                        .at[i].add(-crystals.impurity_solid).at[d].add(-crystals.degradant_solid))
-        liquor_masses = final_liquor * self.molar_masses
+        liquor_masses = inlet.final_liquor(roles) * self.molar_masses
         retained = parameters["wash_residue"] * liquid * liquor_masses / jnp.sum(liquor_masses)  # of the liquor
         wash = liquid - jnp.sum(retained)
-        impurity_solid = self.molar_masses[i] * crystals.impurity_solid
-        degradant_solid = self.molar_masses[d] * crystals.degradant_solid
+        held = inlet.crystal_masses(self.molar_masses, roles)
         solvents = sum(retained[k] for k in roles.solvents)
         cake = Solids(
-            api=crystals.crystal_mass - impurity_solid - degradant_solid + retained[p],
-            impurity=impurity_solid + retained[i],
-            degradant=degradant_solid + retained[d],
+            api=held[p] + retained[p],
+            impurity=held[i] + retained[i],
+            degradant=held[d] + retained[d],
             other=jnp.sum(retained) - retained[p] - retained[i] - retained[d] - solvents,
             solvent=solvents + wash,
         )

@@ -35,24 +35,25 @@ def _where(spec: ProcessSpec, key: str) -> str:
 
 def check_mechanism(spec: ProcessSpec, species_names, reaction_equations, thermo_model: str) -> None:
     """Refuse a process whose mechanism lacks what the file names, or names a species without a
-    role. **Raises:** `InputError` naming the process file, the line and the species or reaction."""
-    where = _where(spec, "species")
+    role. **Raises:** `InputError` naming the process file, the line and the species or reaction
+    (the file is read again only to name the line of an error)."""
     for name in species_names:
         if name not in spec.roles:
-            raise InputError(f"{where}: species {name!r} of the mechanism has no role; give it one under species "
-                             "(api, impurity, degradant, solvent, reagent, byproduct).")
+            raise InputError(f"{_where(spec, 'species')}: species {name!r} of the mechanism has no role; give it one "
+                             "under species (api, impurity, degradant, solvent, reagent, byproduct).")
     for name in spec.roles:
         if name not in species_names:
-            raise InputError(f"{where}: species {name!r} is not in the mechanism (species: {', '.join(species_names)}).")
+            raise InputError(f"{_where(spec, 'species')}: species {name!r} is not in the mechanism (species: "
+                             f"{', '.join(species_names)}).")
     named = [*spec.reaction_effects, *(spec.equilibrium or ())]
     named += [n[len("log_multiplier["):-1] for n in spec.uncertain if n.startswith("log_multiplier[")]
-    where = _where(spec, "mechanism")
     for equation in named:
         if equation not in reaction_equations:
-            raise InputError(f"{where}: reaction {equation!r} is not in the mechanism (reactions: "
+            raise InputError(f"{_where(spec, 'mechanism')}: reaction {equation!r} is not in the mechanism (reactions: "
                              f"{'; '.join(reaction_equations)}).")
     if thermo_model != "ideal-condensed":
-        raise InputError(f"{where}: the mechanism's thermo is {thermo_model!r}; a process is a liquid: 'ideal-condensed'.")
+        raise InputError(f"{_where(spec, 'mechanism')}: the mechanism's thermo is {thermo_model!r}; a process is a "
+                         "liquid: 'ideal-condensed'.")
 
 
 def molar_masses(spec: ProcessSpec) -> dict[str, float]:

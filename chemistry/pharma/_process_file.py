@@ -15,7 +15,7 @@ from snapo_ode import InputError, read_text, strict_yaml, validate
 from ._process_schema import ProcessFile
 from ._quantities import conversion, in_model_unit
 from ._ranges import ParameterRange, Specification
-from ._unit_catalogue import FLOWSHEET, UNIT_PARAMETERS, UNIT_ROLES
+from ._unit_catalogue import FLOWSHEET, UNIT_PARAMETERS, UNIT_ROLES, unit_parameter
 
 BUILT_IN_PROCESS = pathlib.Path(str(files("chemistry.pharma") / "processes" / "api_chain.yaml"))
 CQA_UNITS = {"assay": "%", "purity": "%", "mass_fraction": "%", "residual_solvent": "ppm", "loss_on_drying": "%",
@@ -134,8 +134,7 @@ def _cpps(data, where) -> tuple[ParameterRange, ...]:
     ranges, names, targets = [], set(), set()
     for cpp in data.cpps:
         at = where("name", cpp.name)
-        unit, _, parameter = cpp.target.partition(".")
-        info = UNIT_PARAMETERS.get(types.get(unit), {}).get(parameter)
+        info = unit_parameter(types, cpp.target)
         if info is None:
             raise InputError(f"{at}: cpps[{cpp.name}].target = {cpp.target!r} is no unit parameter; allowed: "
                              f"unit.parameter of {', '.join(types)}.")

@@ -7,15 +7,13 @@ from snapo_ode import InputError
 
 from ._process_file import ProcessSpec
 from ._quantities import in_model_unit
-from ._unit_catalogue import UNIT_PARAMETERS
+from ._unit_catalogue import unit_parameter
 
 
 def _model_unit(process: ProcessSpec, name: str) -> str:
-    unit, _, parameter = name.partition(".")
-    if unit == "feed":
+    if name.startswith("feed."):
         return "kmol/m^3"
-    types = {u.name: u.type for u in process.units}
-    return UNIT_PARAMETERS[types[unit]][parameter].unit
+    return unit_parameter({u.name: u.type for u in process.units}, name).unit
 
 
 def settings_values(process: ProcessSpec, flags: dict, settings: list[str]) -> tuple[dict, dict]:

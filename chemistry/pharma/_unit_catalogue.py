@@ -90,6 +90,13 @@ UNIT_PARAMETERS = {
 }
 """type -> parameter name -> `Parameter`, in the order of the chain's inputs."""
 
+def unit_parameter(unit_types: dict[str, str], name: str) -> Parameter | None:
+    """The `Parameter` a process's "unit.parameter" `name` stands for, given its units' types
+    (unit name -> type), or None where no unit of the process has it."""
+    unit, _, parameter = name.partition(".")
+    return UNIT_PARAMETERS.get(unit_types.get(unit), {}).get(parameter)
+
+
 UNIT_ROLES = {"plug_flow_reactor": "reactor", "batch_reactor": "reactor", "cstr": "reactor",
               "cooling_crystallizer": "crystallizer", "antisolvent_crystallizer": "crystallizer", "filter": "filter",
               "dryer": "dryer"}

@@ -109,6 +109,16 @@ def cantera_reactor(chain: PharmaChain, inputs, name: str, *, rtol=1e-11):
     return reactor.phase.concentrations * reactor.volume, reactor.phase.T
 
 
+def outlet_differences(outlet, amounts, temperature) -> tuple[float, float]:
+    """(largest relative difference of `outlet`'s amounts from Cantera's `amounts`, over those
+    above 1e-12 of the largest; relative difference of the temperatures): how a reactor is held
+    against Cantera's own (`cantera_reactor`)."""
+    ours = np.asarray(outlet.amounts)
+    significant = amounts > 1e-12 * amounts.max()
+    return (float(np.max(np.abs(ours - amounts)[significant] / amounts[significant])),
+            float(abs(float(outlet.temperature) - temperature) / temperature))
+
+
 def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path=None, *, rtol=1e-11):
     """The first reactor integrated by Cantera (`cantera_reactor`): (amounts per m^3 of feed
     volume, T [K]) at the outlet."""
@@ -118,15 +128,8 @@ def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, pat
 def cantera_check(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, n_states: int = 100) -> CanteraCheck:
     """The mechanism and R1 against Cantera (`chain` should use tight tolerances)."""
     rates = compare_rates(chain.mechanism, path, n_states=n_states, temperature=(270.0, 360.0))
-    amounts, temperature = cantera_r1(chain, cpps, physical, path)
-    outlet = r1_outlet(chain, cpps, physical)
-    ours = np.asarray(outlet.amounts)
-    significant = amounts > 1e-12 * amounts.max()
-    return CanteraCheck(
-        rates.rates_of_progress, rates.net_production,
-        float(np.max(np.abs(ours - amounts)[significant] / amounts[significant])),
-        float(abs(float(outlet.temperature) - temperature) / temperature),
-    )
+    differences = outlet_differences(r1_outlet(chain, cpps, physical), *cantera_r1(chain, cpps, physical, path))
+    return CanteraCheck(rates.rates_of_progress, rates.net_production, *differences)
 
 
 def scipy_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, rtol: float = 1e-12,
