@@ -304,3 +304,50 @@ def test_the_bound_hands_out_no_free_gas_at_an_off_grid_start_and_end():
     assert free > lp + relaxed.spacing * forward.min() * 0.9
     chosen = dual.tightest_grid(None, inputs, scene, inventory_grid(inputs, scene, 21), [on_capacity, relaxed], forward)
     assert chosen == relaxed
+
+
+def test_window_maxima_equal_a_loop_over_every_window():
+    from finance.gas_storage._range_maxima import range_maxima
+
+    rng = np.random.default_rng(3)
+    values = rng.normal(size=(3, 57))
+    values[:, 9] = -np.inf  # an infeasible level stays out of every maximum
+    low = rng.integers(-20, 57, size=80)
+    high = low + rng.integers(0, 45, size=80)  # windows partly or wholly outside [0, 57)
+    padded = np.concatenate([np.full((3, 20), -np.inf), values, np.full((3, 45), -np.inf)], axis=1)
+    expected = np.stack([padded[:, a + 20:b + 21].max(axis=1) for a, b in zip(low, high)], axis=1)
+    np.testing.assert_array_equal(np.asarray(range_maxima(jnp.asarray(values), low, high)), expected)
+    level = np.arange(57)  # windows that move with the level: slices, no gather
+    np.testing.assert_array_equal(np.asarray(range_maxima(jnp.asarray(values), level - 4, level + 11)),
+                                  np.stack([padded[:, n + 16:n + 32].max(axis=1) for n in level], axis=1))
+
+
+def test_the_bound_s_program_equals_the_program_over_every_move():
+    # The bound's dynamic program takes the best move as a window maximum (cash is linear in the
+    # steps on each side of 0). Reference: every move k tried, on a facility whose ratchets make
+    # the reachable window vary with the level, with the lattice penalty.
+    inputs = ratchet_inputs(0.8, days=30)
+    scene = gs.stochastic_scene()
+    grid = inventory_grid(inputs, scene, 51)
+    penalty = lattice.LatticePenalty(lattice.solve_factor_lattice(inputs, scene, grid, points=40))
+    prices = spot_prices(inputs, shocks(inputs, 6, 4))[0]
+    relaxed = dual.relaxed_grid(inputs, scene, 301)
+    assert len(set(relaxed.max_in_steps)) > 3 and len(set(relaxed.max_out_steps)) > 3
+    levels = relaxed.levels
+    daily = penalty.daily(inputs, prices)
+    later = np.where(np.arange(relaxed.nodes) >= relaxed.terminal_node, 0.0, -np.inf)[None].repeat(6, 0)
+    for day in reversed(range(inputs.n_days)):
+        today = jax.tree_util.tree_map(lambda leaf: leaf[day], daily)
+        after = later - np.asarray(gs._lsmc.interpolate_levels(penalty.today(today), levels, grid.spacing))
+        moves = np.arange(-max(relaxed.max_out_steps), max(relaxed.max_in_steps) + 1)
+        cash = np.asarray(gs._model.flows_and_cash(inputs, scene, jnp.asarray(moves * relaxed.spacing),
+                                                   prices[:, day][:, None], day, None)[2])
+        best = np.full_like(later, -np.inf)
+        for n in range(relaxed.nodes):
+            for k in range(-relaxed.max_out_steps[n], relaxed.max_in_steps[n] + 1):
+                if 0 <= n + k < relaxed.nodes:
+                    best[:, n] = np.maximum(best[:, n], cash[:, k - moves[0]] + after[:, n + k])
+        later = best
+    expected = np.maximum(later[:, relaxed.start_nodes[0]], later[:, relaxed.start_nodes[1]])
+    bound = np.asarray(dual.dual_bound(penalty, inputs, scene, grid, prices, relaxed=relaxed).values)
+    np.testing.assert_allclose(bound, expected, rtol=1e-12)

@@ -25,7 +25,7 @@ from snapo_ode import Scene, time_function, time_once
 
 from ._dual import PLACEMENTS, dual_bound, relaxed_grid, schedule_penalty, tightest_grid
 from ._inputs import StorageInputs
-from ._lattice import LatticePenalty, run_lattice_policy, solve_factor_lattice
+from ._lattice import LATTICE_WORK, LatticePenalty, lattice_grid, run_lattice_policy, solve_factor_lattice
 from ._lp import IntrinsicSolution
 from ._lsmc import InventoryGrid, LSMCFit
 from ._lsmc_deltas import lsmc_value_and_deltas
@@ -33,9 +33,9 @@ from ._model import Schedule, flows_and_cash, spot_prices
 from ._results import standard_error
 
 LOOSE_RELAXATION = 0.01  # rates raised by more than this share make the bound's warning "valid but loose"
-DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths when that buys a tighter grid
+DUAL_PATHS = (2_000, 500, 250)  # the bound runs on the first this many evaluation paths when that buys a tighter grid
 PATHWISE_TOLERANCE = 1e-9  # relative: round-off of the path problem's sums
-PILOT_PATHS, PILOT_KEY = 200, 31  # paths of their own on which the bound's grid placement is chosen
+PILOT_PATHS, PILOT_KEY = 50, 31  # paths of their own on which the bound's grid placement is chosen
 
 
 def intrinsic_schedule(inputs: StorageInputs, scene: Scene, intrinsic: IntrinsicSolution, prices) -> Schedule:
@@ -50,21 +50,24 @@ def intrinsic_schedule(inputs: StorageInputs, scene: Scene, intrinsic: Intrinsic
 
 
 def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_shocks, policies: dict[str, Schedule],
-                 *, lattice_points: int = 200, dual_nodes: int | None = None) -> dict:
+                 *, lattice_points: int = 200, dual_nodes: int | None = None,
+                 lattice_work: float = LATTICE_WORK) -> dict:
     """The dual bound on the paths of `eval_shocks` and, for each named policy (its hard schedule
     on those paths) and the lattice's own rule, its value with the penalty as a control variate
     and its gap (bound - value) / bound, each with its standard error. Keys: `dual_upper_bound`,
     `dual_upper_bound_se`, `dual_penalty`, `dual_bounds_continuous_policies`, `dual_grid_nodes`,
     `dual_relaxation`, `dual_paths` (the first evaluation paths the bound and the gaps are taken
-    on: all, or DUAL_PATHS where fewer paths afford a tighter grid), `dual_seconds`, per policy `NAME_value_control_variate(_se)`, `NAME_gap`,
+    on: all, or one of DUAL_PATHS where fewer paths afford a tighter grid), `dual_seconds`, per policy `NAME_value_control_variate(_se)`, `NAME_gap`,
     `NAME_gap_se`, and `warnings` (a list of sentences; the bound's fields are None when a
     pathwise check failed)."""
     prices, _ = spot_prices(inputs, eval_shocks)
     penalty, kind = None, "none: zero volatility, the bound is perfect foresight"
     lattice_seconds = 0.0
     if float(inputs.volatility) > 0:
+        grid = lattice_grid(inputs, scene, grid, points=lattice_points, work=lattice_work)
         lattice_seconds, lattice = time_once(solve_factor_lattice, inputs, scene, grid, points=lattice_points)
-        penalty, kind = LatticePenalty(lattice), f"factor lattice ({lattice_points} levels of the OU factor)"
+        penalty = LatticePenalty(lattice)
+        kind = f"factor lattice ({lattice_points} levels of the OU factor, {grid.nodes} of the inventory)"
         policies = {**policies, "lattice": run_lattice_policy(lattice, inputs, scene, grid, prices)}
     relaxed, paths = _bound_grid(inputs, scene, grid, penalty, dual_nodes, prices.shape[0])
     prices = prices[:paths]
@@ -95,16 +98,16 @@ def _bound_grid(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, penalt
                 paths: int) -> tuple:
     """The bound's grid and the number of evaluation paths it runs on: for each way of placing
     the grid (`_dual.PLACEMENTS`), the tightest relaxation the work budget allows on all paths or
-    on DUAL_PATHS (a tighter relaxation on fewer paths beats a looser one on all: the gap's
-    standard error stays small, the penalty being a control variate, the relaxation's bias does
-    not); then the placement whose bound is lower on PILOT_PATHS paths of their own."""
+    on fewer (DUAL_PATHS: a tighter relaxation on fewer paths beats a looser one on all: the
+    gap's standard error stays small, the penalty being a control variate, the relaxation's bias
+    does not); then the placement whose bound is lower on PILOT_PATHS paths of their own."""
     options = {}
     for placement in PLACEMENTS:
         relaxed, used = relaxed_grid(inputs, scene, dual_nodes, paths=paths, placement=placement), paths
-        if dual_nodes is None and paths > DUAL_PATHS:
-            fewer = relaxed_grid(inputs, scene, paths=DUAL_PATHS, placement=placement)
-            if fewer.relaxation < relaxed.relaxation - 1e-12:
-                relaxed, used = fewer, DUAL_PATHS
+        for count in DUAL_PATHS if dual_nodes is None else ():
+            fewer = relaxed_grid(inputs, scene, paths=count, placement=placement)
+            if count < paths and fewer.relaxation < relaxed.relaxation - 1e-12:
+                relaxed, used = fewer, count
         options[relaxed] = used
     pilot = jax.random.normal(jax.random.key(PILOT_KEY), (min(PILOT_PATHS, paths), inputs.n_days))
     chosen = tightest_grid(penalty, inputs, scene, grid, list(options), spot_prices(inputs, pilot)[0])

@@ -31,8 +31,10 @@ allowed the rates of both cells beside it,
 
 bounds the continuous problem from above, path by path. With cash concave in the net flow and
 positive prices (the stochastic spot), moving k steps earns the most by injecting or withdrawing
-alone, which `flows_and_cash` prices. The relaxation costs only where a rate is not a whole
-number of steps or varies with fill inside a cell: the grid is chosen (`relaxed_grid`) to make
+alone, which `flows_and_cash` prices; cash is then c k, linear on each side of 0, so the best
+move is a window maximum of c m + [U_{t+1} - w~_t](m) over the levels m within reach, found for
+every level at once in O(levels log moves) (`_range_maxima.py`). The relaxation costs only
+where a rate is not a whole number of steps or varies with fill inside a cell: the grid is chosen (`relaxed_grid`) to make
 the largest relative rate increase (`RelaxedGrid.relaxation`) small within a work budget, and
 the bound is reported with it.
 """
@@ -51,9 +53,12 @@ from ._inputs import StorageInputs
 from ._lsmc import InventoryGrid, _per_row, interpolate_levels
 from ._model import flows_and_cash, kept_fraction
 from ._penalty import AbstractPenalty
+from ._range_maxima import range_maxima
 
-DUAL_WORK = 6e9  # levels x moves x paths x days of the bound's dynamic program, at most (when choosing its grid)
-DUAL_NODES = (101, 2_001)  # the range of level counts `relaxed_grid` searches
+DUAL_WORK = 2e10  # levels x sweeps x paths x days of the bound's dynamic program, at most (`dual_work`)
+DUAL_NODES = (101, 40_001)  # the range of level counts `relaxed_grid` searches
+CHUNK_CELLS = 80_000  # paths x levels of one chunk of the bound's program: its arrays stay in cache (measured fastest)
+EVERY_COUNT_TO = 2_001  # every count up to this is tried (one whose steps divide the rates is found), beyond 2^(1/8) apart
 Placement = Literal["ends", "terminal", "capacity"]  # where the bound's grid is anchored (`_placed`)
 PLACEMENTS: tuple[Placement, ...] = ("ends", "terminal", "capacity")
 
@@ -144,12 +149,12 @@ def _placed(inputs: StorageInputs, scene: Scene, count: int, placement: Placemen
 
 def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, *, paths: int = 1,
                  work: float = DUAL_WORK, placement: Placement = "ends") -> RelaxedGrid:
-    """The bound's grid with about `nodes` levels (`_placed`, placed by `placement`); None chooses, among DUAL_NODES, the count with the
-    smallest relaxation whose work (levels x moves x `paths` x days) stays within `work` (the
-    fewest levels among equals; 101 at least): 101 levels on B&dJ, whose rates are whole steps of
-    2,500 MWh. Where rates are not whole steps the relaxation shrinks only as 1 / levels while the
-    work grows as levels^2 (docs/gas_storage.md has the figures for a ratcheted facility), so
-    such a bound is valid but loose by about the relaxation's share of the rates' value:
+    """The bound's grid with about `nodes` levels (`_placed`, placed by `placement`); None
+    chooses, among the counts `_counts` tries, the one with the smallest relaxation whose work
+    (`dual_work`, for `paths` paths) stays within `work` (the fewest levels among equals): 101
+    levels on B&dJ, whose rates are whole steps of 2,500 MWh. Where rates are not whole steps the
+    relaxation shrinks only as 1 / levels (the work grows as levels x log levels), so such a
+    bound is valid but loose by about the relaxation's share of the rates' value:
     `RelaxedGrid.relaxation` says by how much the rates were raised.
 
     **Raises:** `InputError` for fewer than 2 nodes.
@@ -159,16 +164,32 @@ def relaxed_grid(inputs: StorageInputs, scene: Scene, nodes: int | None = None, 
             raise InputError(f"dual nodes = {nodes}: the bound's grid needs at least 2 levels.")
         return _placed(inputs, scene, int(nodes), placement)
     best = None
-    for count in range(DUAL_NODES[0], DUAL_NODES[1] + 1):
+    for count in _counts():
         grid = _placed(inputs, scene, count, placement)
-        cost = grid.nodes * (max(grid.max_in_steps) + max(grid.max_out_steps) + 1) * paths * inputs.n_days
-        if cost > work and best is not None:
+        if dual_work(grid, paths, inputs.n_days) > work and best is not None:
             break
         if best is None or grid.relaxation < best.relaxation - 1e-12:
             best = grid
         if best.relaxation == 0.0:
             break
     return best
+
+
+def _counts():
+    """The level counts `relaxed_grid` tries, in increasing order."""
+    yield from range(DUAL_NODES[0], EVERY_COUNT_TO + 1)
+    count = EVERY_COUNT_TO
+    while count < DUAL_NODES[1]:
+        count = min(math.ceil(count * 2 ** 0.125), DUAL_NODES[1])
+        yield count
+
+
+def dual_work(relaxed: RelaxedGrid, paths: int, days: int) -> float:
+    """The bound's dynamic program's work on `relaxed`: levels x sweeps x paths x days, a sweep
+    being one pass over the levels of one path and day (`range_maxima` makes log2 of the
+    furthest move's sweeps per direction, and a few more gather, scatter and add)."""
+    sweeps = 6 + sum(math.ceil(math.log2(max(steps) + 1)) for steps in (relaxed.max_in_steps, relaxed.max_out_steps))
+    return relaxed.nodes * sweeps * paths * days
 
 
 class DualBound(NamedTuple):
@@ -184,14 +205,10 @@ class DualBound(NamedTuple):
 @eqx.filter_jit
 def _dual_values(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
                  relaxed: RelaxedGrid, prices: jax.Array) -> jax.Array:
-    nodes = relaxed.nodes
-    max_in, max_out = np.asarray(relaxed.max_in_steps), np.asarray(relaxed.max_out_steps)
-    moves = np.arange(-max_out.max(), max_in.max() + 1)
-    raw = np.arange(nodes)[:, None] + moves[None, :]
-    allowed = jnp.asarray((moves[None] <= max_in[:, None]) & (-moves[None] <= max_out[:, None]) & (raw >= 0)
-                          & (raw < nodes))
-    targets = jnp.asarray(np.clip(raw, 0, nodes - 1))
+    level = np.arange(relaxed.nodes)
+    highest, lowest = level + np.asarray(relaxed.max_in_steps), level - np.asarray(relaxed.max_out_steps)
     levels = jnp.asarray(relaxed.levels)
+    one_step = jnp.asarray([relaxed.spacing, -relaxed.spacing])
     daily = None if penalty is None else penalty.daily(inputs, prices)
 
     def back(later, today):
@@ -199,12 +216,16 @@ def _dual_values(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: 
         after = later
         if penalty is not None:
             after = later - interpolate_levels(penalty.today(day_inputs), levels, grid.spacing)
-        cash = flows_and_cash(inputs, scene, jnp.asarray(moves * relaxed.spacing), price[:, None], day, None)[2]
-        score = jnp.where(allowed, cash[:, None, :] + after[:, targets], -jnp.inf)
-        return jnp.max(score, axis=-1), None
+        # Cash is linear in the steps moved on each side of 0: c_in k injecting, c_out k withdrawing
+        # (k < 0), so the best move within reach is a window maximum of c m + after(m) over levels m.
+        cash = flows_and_cash(inputs, scene, one_step, price[:, None], day, None)[2]
+        c_in, c_out = cash[:, :1] * level, -cash[:, 1:] * level
+        injecting = range_maxima(c_in + after, level, highest) - c_in
+        withdrawing = range_maxima(c_out + after, lowest, level) - c_out
+        return jnp.maximum(injecting, withdrawing), None
 
-    terminal = jnp.where(jnp.arange(nodes) >= relaxed.terminal_node, 0.0, -jnp.inf)
-    later = jnp.broadcast_to(terminal, (prices.shape[0], nodes))
+    terminal = jnp.where(jnp.arange(relaxed.nodes) >= relaxed.terminal_node, 0.0, -jnp.inf)
+    later = jnp.broadcast_to(terminal, (prices.shape[0], relaxed.nodes))
     values, _ = jax.lax.scan(back, later, (jnp.arange(inputs.n_days), prices.T, daily), reverse=True)
     return jnp.maximum(values[:, relaxed.start_nodes[0]], values[:, relaxed.start_nodes[1]])
 
@@ -214,11 +235,12 @@ def dual_bound(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: Sc
     """Solve every path's relaxed penalised problem on `prices` of shape (paths, T) [$/MMBtu]
     (evaluation paths, not those the penalty was fitted on; positive, as the stochastic spot's),
     `chunk` paths at a time. `grid`: the levels the penalty is given on; `relaxed`: the bound's
-    grid (default `relaxed_grid`). `penalty=None` gives perfect foresight (relaxed: equal to
+    grid (default `relaxed_grid`); fewer than `chunk` at a time on a grid of more than
+    CHUNK_CELLS / `chunk` levels. `penalty=None` gives perfect foresight (relaxed: equal to
     `perfect_foresight`'s LP when the relaxation is exact)."""
     relaxed = relaxed_grid(inputs, scene, paths=prices.shape[0]) if relaxed is None else relaxed
     paths = prices.shape[0]
-    size = min(chunk, paths)
+    size = min(chunk, paths, max(1, CHUNK_CELLS // relaxed.nodes))
     parts = []
     for start in range(0, paths, size):
         block = prices[start:start + size]
