@@ -34,17 +34,17 @@ COLUMNS = (
 
 def run_lsmc_benchmark(out: pathlib.Path, *, paths: int, train_paths: int | None, train_steps: int | None,
                        foresight_paths: int, nodes: int, degree: int, seed: int = 0,
-                       head: str = "basestock") -> list[dict]:
+                       head: str = "basestock", progress: bool = True) -> list[dict]:
     """For B&dJ's low and high volatility: train SNAPO (`head`; `train_paths`, `train_steps` None:
     the head's defaults), value by LSMC with `paths` fitting paths,
     and evaluate both (and perfect foresight on `foresight_paths`) on the same `paths` fresh
-    paths; print the side-by-side table and write `bench_gas_lsmc.csv` / `.json` under `out`."""
+    paths (`progress`: show the training's progress bar); print the side-by-side table and write `bench_gas_lsmc.csv` / `.json` under `out`."""
     facility, curve = CASES["bdj"]()
     rows, results = [], {}
     for level, volatility in BDJ_VOLATILITY.items():
         inputs = make_inputs(facility, curve, volatility=volatility, mean_reversion=BDJ_MEAN_REVERSION)
         settings = StudySettings(stochastic=True, paths=paths, head=head, train_paths=train_paths,
-                                 train_steps=train_steps, seed=seed, repeats=3)
+                                 train_steps=train_steps, seed=seed, repeats=3, progress=progress)
         comparison = compare_with_lsmc(inputs, settings, nodes=nodes, degree=degree, foresight_paths=foresight_paths)
         results[level] = {key: value for key, value in comparison.to_json().items()
                           if key not in ("schedule", "deltas", "lp_envelope_deltas")}

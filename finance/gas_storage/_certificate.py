@@ -36,6 +36,7 @@ LOOSE_RELAXATION = 0.01  # rates raised by more than this share make the bound's
 DUAL_PATHS = (2_000, 500, 250)  # the bound runs on the first this many evaluation paths when that buys a tighter grid
 PATHWISE_TOLERANCE = 1e-9  # relative: round-off of the path problem's sums
 PILOT_PATHS, PILOT_KEY = 50, 31  # paths of their own on which the bound's grid placement is chosen
+PILOT_SHARE = 5  # and no more than 1/PILOT_SHARE of the bound's paths per placement
 
 
 def intrinsic_schedule(inputs: StorageInputs, scene: Scene, intrinsic: IntrinsicSolution, prices) -> Schedule:
@@ -100,16 +101,21 @@ def _bound_grid(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, penalt
     the grid (`_dual.PLACEMENTS`), the tightest relaxation the work budget allows on all paths or
     on fewer (DUAL_PATHS: a tighter relaxation on fewer paths beats a looser one on all: the
     gap's standard error stays small, the penalty being a control variate, the relaxation's bias
-    does not); then the placement whose bound is lower on PILOT_PATHS paths of their own."""
+    does not; and no finer than the fewest of DUAL_PATHS afford, so that a run of a few paths
+    gets the same grid at a share of the cost); then the placement whose bound is lower on
+    PILOT_PATHS paths of their own (fewer where the bound runs on fewer than PILOT_SHARE x
+    PILOT_PATHS: on its grid, the pilots cost as much per path as the bound)."""
     options = {}
     for placement in PLACEMENTS:
-        relaxed, used = relaxed_grid(inputs, scene, dual_nodes, paths=paths, placement=placement), paths
+        relaxed = relaxed_grid(inputs, scene, dual_nodes, paths=max(paths, min(DUAL_PATHS)), placement=placement)
+        used = paths
         for count in DUAL_PATHS if dual_nodes is None else ():
             fewer = relaxed_grid(inputs, scene, paths=count, placement=placement)
             if count < paths and fewer.relaxation < relaxed.relaxation - 1e-12:
                 relaxed, used = fewer, count
         options[relaxed] = used
-    pilot = jax.random.normal(jax.random.key(PILOT_KEY), (min(PILOT_PATHS, paths), inputs.n_days))
+    pilots = max(2, min(PILOT_PATHS, min(options.values()) // PILOT_SHARE))
+    pilot = jax.random.normal(jax.random.key(PILOT_KEY), (pilots, inputs.n_days))
     chosen = tightest_grid(penalty, inputs, scene, grid, list(options), spot_prices(inputs, pilot)[0])
     return chosen, options[chosen]
 

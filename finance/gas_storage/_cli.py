@@ -134,7 +134,7 @@ def run_bench_lsmc(args) -> int:
 
     run_lsmc_benchmark(args.out, paths=args.paths, train_paths=args.train_paths, train_steps=args.train_steps,
                        foresight_paths=args.foresight_paths, nodes=args.lsmc_nodes, degree=args.lsmc_degree,
-                       seed=args.seed, head=args.head)
+                       seed=args.seed, head=args.head, progress=args.progress)
     return 0
 
 
