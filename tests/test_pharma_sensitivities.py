@@ -85,7 +85,9 @@ def test_normalised_sensitivities_are_log_derivatives(chain, adjoint, inputs):
 
 def test_forward_tangents_give_the_reverse_passes_sensitivities(chain, inputs, adjoint):
     values, matrix = jacobian_function(chain, False, "forward")(inputs)
-    np.testing.assert_allclose(values, adjoint.values, rtol=1e-13)
+    # The same solve traced through jvp and through vjp: XLA may fuse and order the sums
+    # differently, so the values agree to round-off of the solve (1.1e-13 seen once), not bit for bit.
+    np.testing.assert_allclose(values, adjoint.values, rtol=1e-12)
     assert snapo_ode.agreement(np.asarray(matrix), np.asarray(adjoint.columns(CPP_NAMES))).max_rel_diff <= 1e-9
 
 
