@@ -14,8 +14,7 @@ import numpy as np
 
 from ..kinetics._types import Batch, Scalar, Vector
 from ._chain import ChainResult
-from ._process_file import load_process
-from ._process_file import ProcessSpec
+from ._process_file import ProcessSpec, load_process
 
 
 def _specs(process: ProcessSpec | None):

@@ -38,7 +38,8 @@ def run_lsmc_benchmark(out: pathlib.Path, *, paths: int, train_paths: int | None
     """For B&dJ's low and high volatility: train SNAPO (`head`; `train_paths`, `train_steps` None:
     the head's defaults), value by LSMC with `paths` fitting paths,
     and evaluate both (and perfect foresight on `foresight_paths`) on the same `paths` fresh
-    paths (`progress`: show the training's progress bar); print the side-by-side table and write `bench_gas_lsmc.csv` / `.json` under `out`."""
+    paths (`progress`: show the training's progress bar); print the side-by-side table and write
+    `bench_gas_lsmc.csv` / `.json` under `out`."""
     facility, curve = CASES["bdj"]()
     rows, results = [], {}
     for level, volatility in BDJ_VOLATILITY.items():

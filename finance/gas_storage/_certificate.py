@@ -23,7 +23,7 @@ import numpy as np
 
 from snapo_ode import Scene, time_function, time_once
 
-from ._dual import PLACEMENTS, dual_bound, relaxed_grid, schedule_penalty, tightest_grid
+from ._dual import PLACEMENTS, dual_bound, relaxed_grid, relaxed_grids, schedule_penalty, tightest_grid
 from ._inputs import StorageInputs
 from ._lattice import LATTICE_WORK, LatticePenalty, lattice_grid, run_lattice_policy, solve_factor_lattice
 from ._lp import IntrinsicSolution
@@ -33,7 +33,7 @@ from ._model import Schedule, flows_and_cash, spot_prices
 from ._results import standard_error
 
 LOOSE_RELAXATION = 0.01  # rates raised by more than this share make the bound's warning "valid but loose"
-DUAL_PATHS = (2_000, 500, 250)  # the bound runs on the first this many evaluation paths when that buys a tighter grid
+DUAL_PATHS = (2_000, 500, 250)  # the bound runs on the first of these many evaluation paths that buys the finest grid
 PATHWISE_TOLERANCE = 1e-9  # relative: round-off of the path problem's sums
 PILOT_PATHS, PILOT_KEY = 50, 31  # paths of their own on which the bound's grid placement is chosen
 PILOT_SHARE = 5  # and no more than 1/PILOT_SHARE of the bound's paths per placement
@@ -105,14 +105,17 @@ def _bound_grid(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, penalt
     gets the same grid at a share of the cost); then the placement whose bound is lower on
     PILOT_PATHS paths of their own (fewer where the bound runs on fewer than PILOT_SHARE x
     PILOT_PATHS: on its grid, the pilots cost as much per path as the bound)."""
+    budgets = (max(paths, min(DUAL_PATHS)), *(count for count in DUAL_PATHS if count < paths))
     options = {}
     for placement in PLACEMENTS:
-        relaxed = relaxed_grid(inputs, scene, dual_nodes, paths=max(paths, min(DUAL_PATHS)), placement=placement)
-        used = paths
-        for count in DUAL_PATHS if dual_nodes is None else ():
-            fewer = relaxed_grid(inputs, scene, paths=count, placement=placement)
-            if count < paths and fewer.relaxation < relaxed.relaxation - 1e-12:
-                relaxed, used = fewer, count
+        if dual_nodes is not None:
+            options[relaxed_grid(inputs, scene, dual_nodes, placement=placement)] = paths
+            continue
+        grids = relaxed_grids(inputs, scene, budgets, placement=placement)
+        relaxed, used = grids[budgets[0]], paths
+        for count in budgets[1:]:
+            if grids[count].relaxation < relaxed.relaxation - 1e-12:
+                relaxed, used = grids[count], count
         options[relaxed] = used
     pilots = max(2, min(PILOT_PATHS, min(options.values()) // PILOT_SHARE))
     pilot = jax.random.normal(jax.random.key(PILOT_KEY), (pilots, inputs.n_days))
