@@ -74,8 +74,12 @@ class BasestockPolicy(eqx.Module):
     **Fields:** `mlp` (tanh); `warm_start`: per-day mid-point logits, shape (T,), not trained
     (the intrinsic LP's inventory path, so that the untrained policy follows the intrinsic
     schedule); `day_features`: what the contract offers each day beside the calendar, shape
-    (T, K), not trained (`curve_features`; K = 0 reads the calendar alone); `spot_scale` (the factor's stationary standard deviation) and `mean_log_price`,
-    not trained; `harmonics`, `degree` (static).
+    (T, K), not trained (`curve_features`; K = 0 reads the calendar alone); `spot_scale` (the
+    factor's stationary standard deviation) and `mean_log_price`, not trained; `harmonics`,
+    `degree` (static); `start_factor` (G,) and `start_table` (T, G, 2), not trained, or None:
+    starting logits (mid-point, band) on levels of the factor x, interpolated linearly in x (flat
+    beyond the ends) and added to the network's output in place of `warm_start` and the closed
+    band (`_lattice_start.py`: the targets the factor lattice implies).
     """
 
     mlp: eqx.nn.MLP
@@ -85,19 +89,25 @@ class BasestockPolicy(eqx.Module):
     mean_log_price: jax.Array
     harmonics: int = eqx.field(static=True)
     degree: int | None = eqx.field(static=True)
+    start_factor: jax.Array | None = None
+    start_table: jax.Array | None = None
 
     def logits(self, calendar: jax.Array, log_curve: jax.Array, log_spot_ratio: jax.Array | None) -> jax.Array:
         """Target logits (mid-point, band), shape (paths, T, 2), or (T, 2) when `log_spot_ratio`
         (paths, T) is None; `calendar` (T, C), `log_curve` = log F_t (T,)."""
         calendar = jnp.concatenate([calendar, jax.lax.stop_gradient(self.day_features)], -1).astype(self.warm_start.dtype)
-        start = jnp.stack([jax.lax.stop_gradient(self.warm_start), jnp.full_like(self.warm_start, BAND_INIT)], -1)
+        if self.start_table is None or log_spot_ratio is None:
+            start = jnp.stack([jax.lax.stop_gradient(self.warm_start), jnp.full_like(self.warm_start, BAND_INIT)], -1)
+        else:
+            start = self._table_start(log_spot_ratio)
         scale = jax.lax.stop_gradient(self.spot_scale)
         if self.degree is None:
             return start + self._mlp_on_paths(calendar, log_curve, log_spot_ratio, scale)
         coefficients = jax.vmap(self.mlp)(calendar).reshape(-1, 2, self.degree + 1)  # (T, 2, d + 1)
-        coefficients = coefficients.at[:, :, 0].add(start)
         if log_spot_ratio is None:
-            return coefficients[:, :, 0]
+            return coefficients[:, :, 0] + start
+        if self.start_table is None:
+            coefficients = coefficients.at[:, :, 0].add(start)
         # Horner's rule, elementwise over (paths, T): faster than a batched contraction of the
         # powers with the coefficients, gradient included (docs/gas_storage.md, Measurements
         # behind the design).
@@ -108,7 +118,18 @@ class BasestockPolicy(eqx.Module):
             for power in range(self.degree - 1, -1, -1):
                 value = value * x + coefficients[:, output, power]
             logits.append(value)
-        return jnp.stack(logits, axis=-1)
+        logits = jnp.stack(logits, axis=-1)
+        return logits if self.start_table is None else logits + start
+
+    def _table_start(self, log_spot_ratio: jax.Array) -> jax.Array:
+        """`start_table` at each path's and day's x, shape (paths, T, 2)."""
+        factor, table = jax.lax.stop_gradient((self.start_factor, self.start_table.astype(log_spot_ratio.dtype)))
+        spacing = factor[1] - factor[0]
+        position = jnp.clip((log_spot_ratio - factor[0]) / spacing, 0, factor.shape[0] - 1)
+        low = jnp.clip(jnp.floor(position).astype(int), 0, factor.shape[0] - 2)
+        weight = (position - low)[..., None]
+        days = jnp.arange(table.shape[0])
+        return (1 - weight) * table[days, low] + weight * table[days, low + 1]
 
     def _mlp_on_paths(self, calendar, log_curve, log_spot_ratio, scale):
         # The first layer's calendar part is computed once per day, not once per path and day.
@@ -125,14 +146,29 @@ class BasestockPolicy(eqx.Module):
         return hidden @ last.weight.T + last.bias
 
 
-def intrinsic_warm_start(inputs: StorageInputs, scene: Scene, intrinsic_inventory) -> jax.Array:
-    """Logits of the target mid-point that reproduce the intrinsic inventory path V*_{t+1}, shape (T,)."""
+def _position_logits(inputs: StorageInputs, scene: Scene, target: np.ndarray) -> np.ndarray:
+    """The logits z with `basestock_targets`' position(z) = `target` [MMBtu] for tomorrow's
+    inventory, shape (T, ...): the inverse of its map, the target clipped to [floor, ceiling]."""
     floor = np.asarray(inventory_floor(inputs, scene, None))[1:]
     ceiling = np.asarray(inventory_ceiling(inputs, scene, None))[1:]
+    floor, ceiling = (np.reshape(bound, bound.shape + (1,) * (np.ndim(target) - 1)) for bound in (floor, ceiling))
     span = np.maximum(ceiling - floor, 1e-9 * float(inputs.capacity))
-    position = np.clip((np.asarray(intrinsic_inventory)[1:] - floor) / span, 0.0, 1.0)
+    position = np.clip((np.asarray(target) - floor) / span, 0.0, 1.0)
     scaled = (position + TARGET_OVERSHOOT) / (1 + 2 * TARGET_OVERSHOOT)
-    return jnp.asarray(np.log(scaled / (1 - scaled)))
+    return np.log(scaled / (1 - scaled))
+
+
+def intrinsic_warm_start(inputs: StorageInputs, scene: Scene, intrinsic_inventory) -> jax.Array:
+    """Logits of the target mid-point that reproduce the intrinsic inventory path V*_{t+1}, shape (T,)."""
+    return jnp.asarray(_position_logits(inputs, scene, np.asarray(intrinsic_inventory)[1:]))
+
+
+def target_logits(inputs: StorageInputs, scene: Scene, low: np.ndarray, high: np.ndarray):
+    """`(mid, band)`: the logits that give the targets `low` <= `high` [MMBtu], each shape (T, ...)
+    (the band at least softplus(BAND_INIT), as a closed band starts)."""
+    low, high = _position_logits(inputs, scene, low), _position_logits(inputs, scene, high)
+    band = np.maximum(high - low, float(jax.nn.softplus(BAND_INIT)))
+    return (low + high) / 2, band + np.log(-np.expm1(-band))  # softplus^-1(band)
 
 
 CURVE_FEATURES = 5
@@ -162,11 +198,16 @@ def curve_features(inputs: StorageInputs, intrinsic_inventory) -> jax.Array:
 def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: int = 32, depth: int = 2,
                           spot_scale: float = 1.0, harmonics: int = BASESTOCK_HARMONICS,
                           degree: int | None = PRICE_DEGREE, intrinsic_inventory=None,
-                          output_gain: float = 0.1, read_curve: bool = True) -> BasestockPolicy:
+                          output_gain: float | None = None, read_curve: bool = True,
+                          start: tuple[jax.Array, jax.Array] | None = None) -> BasestockPolicy:
     """A `BasestockPolicy`; with `intrinsic_inventory` (the LP's V_t, shape (T+1,)) it starts on
     the intrinsic schedule, else at mid-range, and with `read_curve` its network also reads
-    `curve_features` (which need the intrinsic schedule). `spot_scale`: the factor's stationary standard
-    deviation, the unit of x. In the deterministic scene the price polynomial has degree 0."""
+    `curve_features` (which need the intrinsic schedule); with `start` = (factor levels (G,),
+    logits (T, G, 2)) on a random spot, it starts on those targets instead (`_lattice_start.py`).
+    `spot_scale`: the factor's stationary standard deviation, the unit of x. In the deterministic
+    scene the price polynomial has degree 0. `output_gain` scales the network's last layer at
+    creation (default 0.1, or 0 with a `start`: a correction that starts at zero, so that the
+    untrained policy is its start)."""
     day_features = (curve_features(inputs, intrinsic_inventory) if read_curve and intrinsic_inventory is not None
                     else jnp.zeros((inputs.n_days, 0)))
     n_calendar = 1 + 2 * harmonics + day_features.shape[1]
@@ -177,14 +218,17 @@ def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: in
         degree = degree if stochastic else 0
         mlp = eqx.nn.MLP(n_calendar, 2 * (degree + 1), width, depth, activation=jnp.tanh, key=key)
     # The last layer starts small (weights) and at zero (bias): the policy starts on the warm start.
+    if output_gain is None:
+        output_gain = 0.0 if start is not None and stochastic else 0.1
     last = mlp.layers[-1]
     mlp = eqx.tree_at(lambda m: (m.layers[-1].weight, m.layers[-1].bias), mlp,
                       (last.weight * output_gain, jnp.zeros_like(last.bias)))
     warm = (jnp.zeros(inputs.n_days) if intrinsic_inventory is None
             else intrinsic_warm_start(inputs, scene, intrinsic_inventory))
     mean_log_price = jnp.mean(jnp.log(inputs.forward_curve))
+    factor, table = (None, None) if start is None or not stochastic else start
     return BasestockPolicy(mlp, warm, day_features, jnp.asarray(spot_scale, dtype=float), mean_log_price, harmonics,
-                           degree)
+                           degree, factor, table)
 
 
 def basestock_targets(policy: BasestockPolicy, inputs: StorageInputs, scene: Scene, log_spot_ratio,

@@ -31,6 +31,9 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--train-paths", type=count(), help="fresh paths per training step (default per head: "
                         "basestock 512, others 256)")
     parser.add_argument("--train-steps", type=count(), help="default per head: basestock 800, others 1500")
+    parser.add_argument("--start", choices=["lattice", "intrinsic"], default="lattice", help="where the basestock "
+                        "head starts on a random spot: the targets of the factor lattice's value (default) or the "
+                        "intrinsic schedule (docs/gas_storage.md, Where the policy starts)")
     parser.add_argument("--learning-rate", type=positive(), help="peak learning rate (default per head: basestock 0.03, "
                         "others 0.01)")
     parser.add_argument("--sharpness", type=positive(), help="smoothing sharpness of the smooth value (gap about "
@@ -79,7 +82,7 @@ def study_from_args(args):
                              train_steps=args.train_steps, learning_rate=args.learning_rate, sharpness=args.sharpness,
                              hard_training=args.hard_training, train_float32=args.train_float32,
                              deltas_only=args.deltas_only, bump=args.bump, progress=args.progress,
-                             checkpoint_path=args.checkpoint, resume=args.resume)
+                             checkpoint_path=args.checkpoint, resume=args.resume, start=args.start)
     return inputs, settings
 
 

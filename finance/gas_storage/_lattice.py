@@ -83,7 +83,7 @@ def _kinks(factor: jax.Array) -> jax.Array:
     return jnp.asarray(slopes - np.eye(size, k=-1) @ slopes) / (factor[1] - factor[0])
 
 
-def _interpolate(factor: jax.Array, table: jax.Array, x: jax.Array) -> jax.Array:
+def interpolate_factor(factor: jax.Array, table: jax.Array, x: jax.Array) -> jax.Array:
     """Rows of `table` (G, N) interpolated linearly at `x` (paths,), flat beyond the ends."""
     spacing = factor[1] - factor[0]
     position = jnp.clip((x - factor[0]) / spacing, 0, factor.shape[0] - 1)
@@ -131,7 +131,7 @@ def _solve(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, points: int
         back, jnp.zeros((points, grid.nodes)),
         (jnp.arange(inputs.n_days), inputs.forward_curve, transition.variance, inventory_floor(inputs, scene, None)[1:]),
         reverse=True)
-    value = start_value(inputs, grid, _interpolate(factor, values[0], jnp.zeros(1)))[0]
+    value = start_value(inputs, grid, interpolate_factor(factor, values[0], jnp.zeros(1)))[0]
     return FactorLattice(factor, continuation, values, value)
 
 
@@ -144,7 +144,7 @@ def run_lattice_policy(lattice: FactorLattice, inputs: StorageInputs, scene: Sce
 
     def continuation(today, _):
         x, table = today
-        return _interpolate(lattice.factor, table, x)
+        return interpolate_factor(lattice.factor, table, x)
 
     return run_continuation_policy(inputs, scene, grid, prices, continuation,
                                    (_factor(inputs, prices).T, lattice.continuation))
@@ -173,4 +173,4 @@ class LatticePenalty(AbstractPenalty):
         # At zero volatility (sd 0) the lattice is refused; the guard keeps the trace finite.
         calls = _calls(self.factor, mean, jnp.maximum(sd, 1e-300))
         expected = later[0] + calls @ (_kinks(self.factor) @ later)
-        return _interpolate(self.factor, later, following) - expected
+        return interpolate_factor(self.factor, later, following) - expected

@@ -30,7 +30,7 @@ DEFAULT_HEAD: PolicyHead = "basestock"
 
 def make_policy(scene: Scene, inputs: StorageInputs, *, key, width: int = 32, depth: int = 2,
                 spot_scale: float = 1.0, head: PolicyHead = "fraction", split_actions: bool = False,
-                intrinsic_inventory=None):
+                intrinsic_inventory=None, start=None):
     """A policy of the given `head` (`split_actions=True` is `head="split"`). `spot_scale`: the
     spot factor's stationary standard deviation, the unit of the price features (stochastic
     scene). `intrinsic_inventory` (the LP's V_t, shape (T+1,)): the basestock head starts on
@@ -39,7 +39,7 @@ def make_policy(scene: Scene, inputs: StorageInputs, *, key, width: int = 32, de
     check_choice("head", head, POLICY_HEADS)
     if head == "basestock":
         return make_basestock_policy(scene, inputs, key=key, width=width, depth=depth, spot_scale=spot_scale,
-                                     intrinsic_inventory=intrinsic_inventory)
+                                     intrinsic_inventory=intrinsic_inventory, start=start)
     return make_action_policy(scene, inputs, key=key, width=width, depth=depth, spot_scale=spot_scale,
                               split=head == "split")
 
@@ -72,7 +72,8 @@ def storage_policy_bytes(policy) -> bytes:
     header = {"head": "basestock", "in_size": mlp.in_size, "out_size": mlp.out_size, "width": mlp.width_size,
               "depth": mlp.depth, "n_days": int(policy.warm_start.shape[0]), "harmonics": policy.harmonics,
               "day_features": int(policy.day_features.shape[1]),
-              "degree": policy.degree}
+              "degree": policy.degree,
+              "start_levels": 0 if policy.start_factor is None else int(policy.start_factor.shape[0])}
     buffer = io.BytesIO()
     eqx.tree_serialise_leaves(buffer, policy)
     return json.dumps(header).encode() + b"\n" + buffer.getvalue()
@@ -86,9 +87,10 @@ def load_storage_policy(path: str | os.PathLike):
         return load_policy(path)
     mlp = eqx.nn.MLP(header["in_size"], header["out_size"], header["width"], header["depth"], activation=jnp.tanh,
                      key=jax.random.key(0))
-    like = BasestockPolicy(mlp, jnp.zeros(header["n_days"]), jnp.zeros((header["n_days"], header.get("day_features", 0))),
-                           jnp.zeros(()), jnp.zeros(()), header["harmonics"],
-                           header["degree"])
+    days, levels = header["n_days"], header.get("start_levels", 0)
+    start = (jnp.zeros(levels), jnp.zeros((days, levels, 2))) if levels else (None, None)
+    like = BasestockPolicy(mlp, jnp.zeros(days), jnp.zeros((days, header.get("day_features", 0))),
+                           jnp.zeros(()), jnp.zeros(()), header["harmonics"], header["degree"], *start)
     with open(path, "rb") as handle:
         handle.readline()
         return eqx.tree_deserialise_leaves(handle, like)

@@ -58,6 +58,9 @@ class StorageStudy(Result):
     training_curve: list
     head: str
     training_settings: dict
+    start: str = "intrinsic"
+    start_seconds: float = 0.0
+    start_value_hard: float | None = None
     paths: int | None = None
     train_paths: int | None = None
     seed: int | None = None
@@ -107,7 +110,10 @@ class StorageStudy(Result):
             f"   (smooth - hard: {self.smoothing_gap:,.0f} $)",
             f"  worst hard-constraint violation     {self.max_constraint_violation:>16.2e} MMBtu",
             f"  training: {self.train_steps} steps in {self.train_seconds:.1f} s after "
-            f"{self.compile_seconds:.1f} s compile",
+            f"{self.compile_seconds:.1f} s compile"
+            + ("" if self.start_value_hard is None else
+               f"; started on the lattice's targets ({self.start_seconds:.1f} s, worth {self.start_value_hard:,.0f} $ "
+               f"untrained)"),
             f"  {days} forward-curve deltas + {len(self.parameter_sensitivities)} parameter sensitivities from one "
             f"reverse pass: {1e3 * self.gradient_seconds:.2f} ms ({self.gradient_forward_ratio:.2f}x the forward pass)",
         ]

@@ -3,6 +3,7 @@ and take every sensitivity from one reverse pass (optionally against bump-and-re
 
 import pathlib
 import time
+from typing import Literal
 
 import equinox as eqx
 import jax
@@ -10,13 +11,17 @@ import jax.numpy as jnp
 import numpy as np
 
 import snapo_ode
-from snapo_ode import Settings, check_choice, check_count, time_function
+from snapo_ode import Settings, check_choice, check_count, time_function, time_once
 
 from ._inputs import StorageInputs, check_positive_prices
+from ._lattice_start import basestock_start
 from ._lp import solve_intrinsic
 from ._model import deterministic_scene, stochastic_scene
 from ._policy import DEFAULT_HEAD, POLICY_HEADS, PolicyHead, expected_value, make_policy, simulate
 from ._results import StorageStudy, standard_error
+
+PolicyStart = Literal["lattice", "intrinsic"]
+POLICY_STARTS = ("lattice", "intrinsic")
 
 
 # Training settings per head, measured on the Boogert & de Jong contract (docs/gas_storage.md,
@@ -31,12 +36,19 @@ HEAD_TRAINING = {
     "split": dict(train_paths=256, train_steps=1500, learning_rate=1e-2, sharpness=200.0, hard_training=False,
                   train_float32=False),
 }
+# Started on the lattice's targets (stochastic basestock), the policy is near the optimum: a smaller
+# step keeps it there, and a sharper smoothing makes the smooth value the hard one's near the
+# ratchets (measured on family cases: docs/gas_storage.md, Where the policy starts).
+LATTICE_START_TRAINING = dict(learning_rate=3e-3, sharpness=1000.0)
 
 
 class StudySettings(Settings):
     """**Fields:** `stochastic` (trade on simulated spot paths); `paths` (Monte Carlo paths of
     the evaluation, drawn fresh, common to the value, the adjoint and the bumps); `head` (of the
-    policy, see `make_policy`; `split_actions=True` is `head="split"`) and `width`;
+    policy, see `make_policy`; `split_actions=True` is `head="split"`) and `width`; `start`
+    (where the basestock head starts on a random spot: `"lattice"`, the targets of the factor
+    lattice's value, `_lattice_start.py`, with `LATTICE_START_TRAINING`'s defaults; or
+    `"intrinsic"`, the intrinsic schedule; at zero volatility it is always the intrinsic);
     `train_paths` (paths drawn anew at every training step); `seed`; `train_steps`;
     `learning_rate`; `sharpness` (dimensionless smoothing sharpness of the smooth value; gaps
     are about log(2)/sharpness of a day's maximum flow); `hard_training` (train and take the
@@ -63,6 +75,7 @@ class StudySettings(Settings):
     hard_training: bool | None = eqx.field(static=True, default=None)
     train_float32: bool | None = eqx.field(static=True, default=None)
     width: int = eqx.field(static=True, default=32)
+    start: PolicyStart = eqx.field(static=True, default="lattice")
     deltas_only: bool = eqx.field(static=True, default=False)
     bump: bool = eqx.field(static=True, default=False)
     repeats: int | None = eqx.field(static=True, default=None)
@@ -77,7 +90,11 @@ class StudySettings(Settings):
                                            "head = 'split'; give one of them.")
             self.head = "split"
         check_choice("head", self.head, POLICY_HEADS)
-        for name, default in HEAD_TRAINING[self.head].items():
+        check_choice("start", self.start, POLICY_STARTS)
+        defaults = HEAD_TRAINING[self.head]
+        if self.stochastic and self.head == "basestock" and self.start == "lattice":
+            defaults = {**defaults, **LATTICE_START_TRAINING}
+        for name, default in defaults.items():
             if getattr(self, name) is None:
                 setattr(self, name, default)
         if self.repeats is None:
@@ -96,7 +113,7 @@ class StudySettings(Settings):
     def training(self) -> tuple:
         """The fields that define the training (its checkpoint's fingerprint): not the evaluation's."""
         return (self.stochastic, self.head, self.width, self.train_paths, self.seed, self.train_steps,
-                self.learning_rate, self.sharpness, self.hard_training, self.train_float32)
+                self.learning_rate, self.sharpness, self.hard_training, self.train_float32, self.start)
 
     @property
     def training_sharpness(self) -> float | None:
@@ -178,8 +195,11 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         kappa = max(float(inputs.mean_reversion), 1e-6)
         spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
     intrinsic = solve_intrinsic(inputs, deterministic_scene())
+    start_seconds, targets = 0.0, None
+    if settings.stochastic and settings.head == "basestock" and settings.start == "lattice" and inputs.volatility > 0:
+        start_seconds, targets = time_once(basestock_start, inputs, scene)
     policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale, head=settings.head,
-                         width=settings.width, intrinsic_inventory=intrinsic.inventory)
+                         width=settings.width, intrinsic_inventory=intrinsic.inventory, start=targets)
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
     sharpness = settings.training_sharpness
     train_dtype = jnp.float32 if settings.train_float32 else jnp.float64
@@ -202,8 +222,8 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
                               keep_best=not settings.stochastic,  # with fresh paths each step, the best is a lucky batch
                               fingerprint={"inputs": inputs, "effects": sorted(scene.active),
                                            "settings": settings.training})
-    train_wall = time.perf_counter() - start
-    policy = trained.params
+    train_wall = time.perf_counter() - start + start_seconds  # the policy's start is part of its training
+    untrained, policy = policy, trained.params
 
     # The evaluation shocks are arguments, not closed-over constants: XLA would fold a constant
     # array of 10,000 paths through the price model at compile time, a long compile.
@@ -214,6 +234,8 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
 
     smooth_run = evaluate(policy, inputs, eval_shocks, False)
     hard_run = evaluate(policy, inputs, eval_shocks, True)
+    start_value_hard = None if targets is None else float(jnp.mean(evaluate(untrained, inputs, eval_shocks,
+                                                                             True).value))
     kept = 1.0 - float(inputs.fuel_loss)
 
     @eqx.filter_jit
@@ -286,7 +308,8 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         training_settings=dict(train_paths=settings.train_paths, train_steps=settings.train_steps,
                                learning_rate=settings.learning_rate, sharpness=sharpness,
                                train_float32=settings.train_float32, keep="best" if not settings.stochastic else "last"),
-        policy=policy, inputs=inputs, scene_effects=scene, evaluation_shocks=eval_shocks, hard=hard_run,
+        start="lattice" if targets is not None else "intrinsic", start_seconds=start_seconds,
+        start_value_hard=start_value_hard, policy=policy, inputs=inputs, scene_effects=scene, evaluation_shocks=eval_shocks, hard=hard_run,
         intrinsic=intrinsic, bump=bump, bump_relative_step=snapo_ode.DEFAULT_RELATIVE_STEP if bump else None,
         **stochastic,
     )
