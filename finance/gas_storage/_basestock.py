@@ -23,6 +23,7 @@ import numpy as np
 from snapo_ode import Scene, rollout, smooth
 
 from ._inputs import StorageInputs
+from ._lattice import interpolate_factor
 from ._model import (
     Schedule,
     calendar_features,
@@ -123,13 +124,9 @@ class BasestockPolicy(eqx.Module):
 
     def _table_start(self, log_spot_ratio: jax.Array) -> jax.Array:
         """`start_table` at each path's and day's x, shape (paths, T, 2)."""
-        factor, table = jax.lax.stop_gradient((self.start_factor, self.start_table.astype(log_spot_ratio.dtype)))
-        spacing = factor[1] - factor[0]
-        position = jnp.clip((log_spot_ratio - factor[0]) / spacing, 0, factor.shape[0] - 1)
-        low = jnp.clip(jnp.floor(position).astype(int), 0, factor.shape[0] - 2)
-        weight = (position - low)[..., None]
-        days = jnp.arange(table.shape[0])
-        return (1 - weight) * table[days, low] + weight * table[days, low + 1]
+        factor, table = jax.lax.stop_gradient((self.start_factor, self.start_table))
+        factor, table = factor.astype(log_spot_ratio.dtype), table.astype(log_spot_ratio.dtype)
+        return jax.vmap(interpolate_factor, in_axes=(None, 0, 1), out_axes=1)(factor, table, log_spot_ratio)
 
     def _mlp_on_paths(self, calendar, log_curve, log_spot_ratio, scale):
         # The first layer's calendar part is computed once per day, not once per path and day.
