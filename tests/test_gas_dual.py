@@ -244,7 +244,7 @@ def test_lattice_expectation_of_the_interpolant_is_exact():
     z = jnp.linspace(-12.0, 12.0, 240_001)
     density = jnp.exp(-0.5 * z**2) / jnp.sqrt(2 * jnp.pi)
     for mean, row in zip(means, expected):
-        values = lattice._interpolate(factor, levels, mean + sd * z)
+        values = lattice.interpolate_factor(factor, levels, mean + sd * z)
         quadrature = jnp.trapezoid(values * density[:, None], z, axis=0)
         np.testing.assert_allclose(row, quadrature, rtol=0, atol=1e-8)
 
