@@ -107,8 +107,6 @@ class BasestockPolicy(eqx.Module):
         coefficients = jax.vmap(self.mlp)(calendar).reshape(-1, 2, self.degree + 1)  # (T, 2, d + 1)
         if log_spot_ratio is None:
             return coefficients[:, :, 0] + start
-        if self.start_table is None:
-            coefficients = coefficients.at[:, :, 0].add(start)
         # Horner's rule, elementwise over (paths, T): faster than a batched contraction of the
         # powers with the coefficients, gradient included (docs/gas_storage.md, Measurements
         # behind the design).
@@ -119,8 +117,7 @@ class BasestockPolicy(eqx.Module):
             for power in range(self.degree - 1, -1, -1):
                 value = value * x + coefficients[:, output, power]
             logits.append(value)
-        logits = jnp.stack(logits, axis=-1)
-        return logits if self.start_table is None else logits + start
+        return jnp.stack(logits, axis=-1) + start
 
     def _table_start(self, log_spot_ratio: jax.Array) -> jax.Array:
         """`start_table` at each path's and day's x, shape (paths, T, 2)."""
@@ -209,6 +206,7 @@ def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: in
                     else jnp.zeros((inputs.n_days, 0)))
     n_calendar = 1 + 2 * harmonics + day_features.shape[1]
     stochastic = scene.has("stochastic_spot")
+    start = start if stochastic else None  # a deterministic price has no factor to read a table at
     if degree is None:
         mlp = eqx.nn.MLP(n_calendar + (2 if stochastic else 0), 2, width, depth, activation=jnp.tanh, key=key)
     else:
@@ -216,14 +214,14 @@ def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: in
         mlp = eqx.nn.MLP(n_calendar, 2 * (degree + 1), width, depth, activation=jnp.tanh, key=key)
     # The last layer starts small (weights) and at zero (bias): the policy starts on the warm start.
     if output_gain is None:
-        output_gain = 0.0 if start is not None and stochastic else 0.1
+        output_gain = 0.0 if start is not None else 0.1
     last = mlp.layers[-1]
     mlp = eqx.tree_at(lambda m: (m.layers[-1].weight, m.layers[-1].bias), mlp,
                       (last.weight * output_gain, jnp.zeros_like(last.bias)))
     warm = (jnp.zeros(inputs.n_days) if intrinsic_inventory is None
             else intrinsic_warm_start(inputs, scene, intrinsic_inventory))
     mean_log_price = jnp.mean(jnp.log(inputs.forward_curve))
-    factor, table = (None, None) if start is None or not stochastic else start
+    factor, table = (None, None) if start is None else start
     return BasestockPolicy(mlp, warm, day_features, jnp.asarray(spot_scale, dtype=float), mean_log_price, harmonics,
                            degree, factor, table)
 

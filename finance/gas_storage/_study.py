@@ -92,7 +92,7 @@ class StudySettings(Settings):
         check_choice("head", self.head, POLICY_HEADS)
         check_choice("start", self.start, POLICY_STARTS)
         defaults = HEAD_TRAINING[self.head]
-        if self.stochastic and self.head == "basestock" and self.start == "lattice":
+        if self.starts_on_lattice:
             defaults = {**defaults, **LATTICE_START_TRAINING}
         for name, default in defaults.items():
             if getattr(self, name) is None:
@@ -108,6 +108,12 @@ class StudySettings(Settings):
         snapo_ode.check_range("sharpness", self.sharpness, 0.0, 1e8, low_open=True)
         check_count("repeats", self.repeats)
         check_count("width", self.width, 1, 4096)
+
+    @property
+    def starts_on_lattice(self) -> bool:
+        """Whether the policy starts on the factor lattice's targets (a stochastic basestock study
+        with `start="lattice"`; `run_study` also needs a non-zero volatility)."""
+        return self.stochastic and self.head == "basestock" and self.start == "lattice"
 
     @property
     def training(self) -> tuple:
@@ -196,7 +202,7 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
     intrinsic = solve_intrinsic(inputs, deterministic_scene())
     start_seconds, targets = 0.0, None
-    if settings.stochastic and settings.head == "basestock" and settings.start == "lattice" and inputs.volatility > 0:
+    if settings.starts_on_lattice and inputs.volatility > 0:
         start_seconds, targets = time_once(basestock_start, inputs, scene)
     policy = make_policy(scene, inputs, key=policy_key, spot_scale=spot_scale, head=settings.head,
                          width=settings.width, intrinsic_inventory=intrinsic.inventory, start=targets)
