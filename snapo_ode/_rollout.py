@@ -13,6 +13,7 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
+from ._elementwise import elementwise_rollout
 from ._platform.validation import InputError, check_choice
 
 RolloutMethod = Literal["scan", "diffrax"]
@@ -52,6 +53,7 @@ def rollout(
     checkpoints: int | None = None,
     per_step=None,
     remat: bool = False,
+    elementwise: bool = False,
 ):
     """Roll a discrete-time model forward `n_steps` steps.
 
@@ -72,6 +74,10 @@ def rollout(
       (`jax.checkpoint` on the step) instead of storing them. Worth it when a step is wide
       (many Monte Carlo paths): storing per-path activations for every step makes the reverse
       pass memory-bound.
+    - `elementwise`: scan only: the state is one array whose entries each depend on their own
+      previous value only (a scalar state, independent paths); the reverse pass is then one
+      linear recurrence and one vectorised pass over every step (`elementwise_rollout`), several
+      times faster than the reverse scan on a CPU. Reverse mode only: no `jax.jvp` through it.
 
     **Returns:** the states, each leaf with a leading axis of length `n_steps + 1` (state0 first).
     """
@@ -82,6 +88,10 @@ def rollout(
         apply = lambda k, state, data: step(k, state, args)  # noqa: E731
     else:
         apply = lambda k, state, data: step(k, state, args, data)  # noqa: E731
+    if elementwise:
+        if method != "scan" or remat:
+            raise InputError("elementwise=True is a scan's reverse pass: use it with method='scan' and remat=False.")
+        return elementwise_rollout(apply, state0, n_steps, per_step)
     if method == "scan":
 
         def body(state, k_and_data):

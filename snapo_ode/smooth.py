@@ -39,26 +39,48 @@ __all__ = [
 _abs = jnp.abs
 
 
-@jax.custom_jvp
+def _tail(x, sharpness):
+    """exp(-k|x|) and log1p(exp(-k|x|)) / k: the transcendental part of softplus(x) and of
+    softplus(-x) alike, computed once for both and for the slopes."""
+    decay = jnp.exp(-sharpness * _abs(x))
+    return decay, jnp.log1p(decay) / sharpness
+
+
+def _logistic(x, decay):
+    """sigmoid(k x) from `decay` = exp(-k|x|), without another exponential."""
+    return jnp.where(x >= 0, 1.0, decay) / (1 + decay)
+
+
 def softplus(x, sharpness: float):
     """log(1 + exp(k x)) / k, computed as max(x, 0) + log1p(exp(-k|x|)) / k so that no
     exponential overflows. Converges to max(x, 0) from above; gap at most log(2)/k.
 
     The derivative is defined explicitly (sigmoid(k x) in x), so it is right at x = 0 too,
     where the kinks of max and abs inside the stable form would give automatic
-    differentiation a one-sided answer.
+    differentiation a one-sided answer; it reuses the value's exponential.
     """
+    return _softplus_pair(x, sharpness)[0]
+
+
+@jax.custom_jvp
+def _softplus_pair(x, sharpness: float):
+    """(softplus(x), softplus(-x)) from one exponential and one logarithm (what is not used of
+    the pair is not computed under `jit`)."""
     x = jnp.asarray(x)
-    return jnp.maximum(x, 0) + jnp.log1p(jnp.exp(-sharpness * _abs(x))) / sharpness
+    tail = _tail(x, sharpness)[1]
+    return jnp.maximum(x, 0) + tail, jnp.maximum(-x, 0) + tail
 
 
-@softplus.defjvp
-def _softplus_jvp(primals, tangents):
+@_softplus_pair.defjvp
+def _softplus_pair_jvp(primals, tangents):
     x, sharpness = primals
     dx, dsharpness = tangents
-    y = softplus(x, sharpness)
-    slope = jax.nn.sigmoid(sharpness * x)
-    return y, slope * dx + (x * slope - y) / sharpness * dsharpness
+    x = jnp.asarray(x)
+    decay, tail = _tail(x, sharpness)
+    up, down = jnp.maximum(x, 0) + tail, jnp.maximum(-x, 0) + tail
+    slope = _logistic(x, decay)  # d softplus(x)/dx; d softplus(-x)/dx = slope - 1
+    return (up, down), (slope * dx + (x * slope - up) / sharpness * dsharpness,
+                        (slope - 1) * dx + (x * (slope - 1) - down) / sharpness * dsharpness)
 
 
 def relu(x, sharpness: float | None = None):
@@ -83,8 +105,10 @@ def clip(x, low, high, sharpness: float | None = None):
         return jnp.clip(x, low, high)
     # Two forms of the same function (softplus(z) = z + softplus(-z)); each is used on the side
     # where it saturates to its bound exactly, so round-off never carries x past low or high.
-    from_low = low + softplus(x - low, sharpness) - softplus(x - high, sharpness)
-    from_high = high - softplus(high - x, sharpness) + softplus(low - x, sharpness)
+    above_low, below_low = _softplus_pair(x - low, sharpness)
+    above_high, below_high = _softplus_pair(x - high, sharpness)
+    from_low = low + above_low - above_high
+    from_high = high - below_high + below_low
     return jnp.where(x < (low + high) / 2, from_low, from_high)
 
 
@@ -115,8 +139,12 @@ def piecewise_linear(x, knots_x, knots_y, sharpness: float | None = None):
     slopes = jnp.diff(knots_y) / jnp.diff(knots_x)
     zero = jnp.zeros((1,), slopes.dtype)
     kinks = jnp.diff(jnp.concatenate([zero, slopes, zero]))
-    hinges = softplus(jnp.expand_dims(x, -1) - knots_x, sharpness)
-    return knots_y[0] + jnp.sum(kinks * hinges, axis=-1)
+    # One hinge per knot, summed knot by knot: elementwise work only (a reduction over a short
+    # trailing axis of knots is several times slower on a CPU, its reverse pass most).
+    value = knots_y[0]
+    for knot in range(knots_x.shape[0]):
+        value = value + kinks[knot] * softplus(x - knots_x[knot], sharpness)
+    return value
 
 
 def penalty_below(x, floor, sharpness: float | None = None):

@@ -104,3 +104,31 @@ def test_step_and_penalties_against_hard_forms():
     np.testing.assert_allclose(smooth.penalty_below(xs, 0.0), [4.0, 0.01, 0.0, 0.0], rtol=1e-15)
     np.testing.assert_allclose(smooth.penalty_above(xs, 0.0), [0.0, 0.0, 0.01, 4.0], rtol=1e-15)
     np.testing.assert_allclose(smooth.penalty_below(xs, 0.0, 1e6), smooth.penalty_below(xs, 0.0), atol=1e-6)
+
+
+def test_clip_is_its_two_softplus_forms_to_the_bit():
+    """`clip` computes softplus(z) and softplus(-z) from one exponential and one logarithm; the
+    values are those of the four separate softplus calls, bit for bit."""
+    xs, low, high, k = jnp.linspace(-3, 4, 2001), -1.0, 2.0, 7.0
+    from_low = low + smooth.softplus(xs - low, k) - smooth.softplus(xs - high, k)
+    from_high = high - smooth.softplus(high - xs, k) + smooth.softplus(low - xs, k)
+    np.testing.assert_array_equal(smooth.clip(xs, low, high, k), jnp.where(xs < (low + high) / 2, from_low, from_high))
+
+
+@pytest.mark.parametrize("x", [-1.3, -0.9, 0.2, 0.51, 1.9, 2.6])
+def test_clip_and_piecewise_gradients_match_central_differences(x):
+    """Every argument, the sharpness included, against central differences."""
+    def central(fn, args, i, h=1e-6):
+        up, down = list(args), list(args)
+        up[i], down[i] = args[i] + h, args[i] - h
+        return (fn(*up) - fn(*down)) / (2 * h)
+
+    clip_args = (x, -1.0, 2.0, 4.0)
+    for i in range(4):
+        assert float(jax.grad(smooth.clip, argnums=i)(*clip_args)) == pytest.approx(
+            float(central(smooth.clip, clip_args, i)), rel=1e-6, abs=1e-9)
+    fill, k = (x + 1.5) / 4.5, 30.0
+    table = lambda fill, y1, k: smooth.piecewise_linear(fill, KNOTS_X, KNOTS_Y.at[1].set(y1), k)  # noqa: E731
+    for i, args in enumerate([(fill, 1.0, k)] * 3):
+        assert float(jax.grad(table, argnums=i)(*args)) == pytest.approx(float(central(table, args, i)),
+                                                                         rel=1e-6, abs=1e-9)

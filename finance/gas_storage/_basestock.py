@@ -42,6 +42,10 @@ BASESTOCK_HARMONICS = 4  # the B&dJ targets vary over the season, not week to we
 TARGET_OVERSHOOT = 0.1
 BAND_INIT = -9.0  # softplus(-9) = 1.2e-4: the band starts closed, as optimal without costs (Adam still opens it)
 PRICE_DEGREE = 3  # the targets' logits are cubic in the standardised spot/forward log-ratio
+# Up to this many paths the daily rollout's reverse pass is the closed form of an elementwise
+# recursion, the faster up to here; beyond it, the scan's own (docs/gas_storage.md, Measurements
+# behind the design).
+ELEMENTWISE_PATHS = 256
 
 
 def inventory_ceiling(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
@@ -51,14 +55,12 @@ def inventory_ceiling(inputs: StorageInputs, scene: Scene, sharpness: float | No
     g_out does not increase with fill, conservative (lower) otherwise."""
     flow_k = flow_sharpness(inputs, sharpness)
 
-    def back(later, _):
+    def back(day, later, _):
         fill = later / inputs.capacity
         room = inputs.max_withdrawal * rate_fraction(inputs.withdrawal_ratchet, fill, scene, sharpness)
-        earlier = smooth.minimum(later + room, inputs.capacity, flow_k)
-        return earlier, earlier
+        return smooth.minimum(later + room, inputs.capacity, flow_k)
 
-    _, ceilings = jax.lax.scan(back, inputs.terminal_inventory_min, None, length=inputs.n_days)
-    return jnp.concatenate([ceilings[::-1], inputs.terminal_inventory_min[None]])
+    return rollout(back, inputs.terminal_inventory_min, inputs.n_days, elementwise=True)[::-1]
 
 
 class BasestockPolicy(eqx.Module):
@@ -270,12 +272,15 @@ def simulate_basestock(policy: BasestockPolicy, inputs: StorageInputs, scene: Sc
         return inventory + smooth.clip(request, lower, upper, flow_k)
 
     # Only the inventory is carried through the loop; the flows and cash follow from its daily
-    # changes in one vectorised pass (the net flow is exactly the change, smooth or hard).
-    # With hard constraints, recomputing each day in the reverse pass is faster than storing it
-    # (docs/gas_storage.md, Measurements behind the design); with smooth ones the transcendental
-    # functions make recomputing dearer.
+    # changes in one vectorised pass (the net flow is exactly the change, smooth or hard). Each
+    # path's inventory depends on its own alone, so on few paths the reverse pass is the closed
+    # form of `rollout(elementwise=True)`; on many, the scan's own, where with hard constraints
+    # recomputing each day in the reverse pass is faster than storing it (with smooth ones the
+    # transcendental functions make recomputing dearer; docs/gas_storage.md, Measurements
+    # behind the design).
+    elementwise = start.size <= ELEMENTWISE_PATHS
     inventory = jnp.moveaxis(rollout(step, start, inputs.n_days, per_step=(low_t, high_t, floor[1:]),
-                                     remat=sharpness is None), 0, -1)
+                                     elementwise=elementwise, remat=not elementwise and sharpness is None), 0, -1)
     net = jnp.diff(inventory, axis=-1)
     injection, withdrawal, cash = flows_and_cash(inputs, scene, net, prices, jnp.arange(inputs.n_days), sharpness)
     return Schedule(jnp.sum(cash, axis=-1), injection, withdrawal, inventory)

@@ -22,7 +22,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from snapo_ode import EffectCatalogue, Scene, smooth
+from snapo_ode import EffectCatalogue, Scene, rollout, smooth
 
 from ._inputs import DAYS_PER_YEAR, StorageInputs
 
@@ -95,14 +95,12 @@ def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None
     kept = kept_fraction(inputs, scene)
     flow_k = flow_sharpness(inputs, sharpness)
 
-    def back(later, _):
+    def back(day, later, _):
         fill = later / inputs.capacity
         room = kept * inputs.max_injection * rate_fraction(inputs.injection_ratchet, fill, scene, sharpness)
-        earlier = smooth.relu(later - room, flow_k)
-        return earlier, earlier
+        return smooth.relu(later - room, flow_k)
 
-    _, floors = jax.lax.scan(back, inputs.terminal_inventory_min, None, length=inputs.n_days)
-    return jnp.concatenate([floors[::-1], inputs.terminal_inventory_min[None]])
+    return rollout(back, inputs.terminal_inventory_min, inputs.n_days, elementwise=True)[::-1]
 
 
 def feasible_flows(inputs: StorageInputs, scene: Scene, inventory, floor_tomorrow, sharpness: float | None):
