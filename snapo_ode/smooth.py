@@ -40,8 +40,8 @@ _abs = jnp.abs
 
 
 def _tail(x, sharpness):
-    """exp(-k|x|) and log1p(exp(-k|x|)) / k: the transcendental part of softplus(x) and of
-    softplus(-x) alike, computed once for both and for the slopes."""
+    """exp(-k|x|) and log1p(exp(-k|x|)) / k: the transcendental part of softplus(x), which its
+    slope shares."""
     decay = jnp.exp(-sharpness * _abs(x))
     return decay, jnp.log1p(decay) / sharpness
 
@@ -51,6 +51,7 @@ def _logistic(x, decay):
     return jnp.where(x >= 0, 1.0, decay) / (1 + decay)
 
 
+@jax.custom_jvp
 def softplus(x, sharpness: float):
     """log(1 + exp(k x)) / k, computed as max(x, 0) + log1p(exp(-k|x|)) / k so that no
     exponential overflows. Converges to max(x, 0) from above; gap at most log(2)/k.
@@ -59,28 +60,18 @@ def softplus(x, sharpness: float):
     where the kinks of max and abs inside the stable form would give automatic
     differentiation a one-sided answer; it reuses the value's exponential.
     """
-    return _softplus_pair(x, sharpness)[0]
-
-
-@jax.custom_jvp
-def _softplus_pair(x, sharpness: float):
-    """(softplus(x), softplus(-x)) from one exponential and one logarithm (what is not used of
-    the pair is not computed under `jit`)."""
     x = jnp.asarray(x)
-    tail = _tail(x, sharpness)[1]
-    return jnp.maximum(x, 0) + tail, jnp.maximum(-x, 0) + tail
+    return jnp.maximum(x, 0) + _tail(x, sharpness)[1]
 
 
-@_softplus_pair.defjvp
-def _softplus_pair_jvp(primals, tangents):
+@softplus.defjvp
+def _softplus_jvp(primals, tangents):
     x, sharpness = primals
     dx, dsharpness = tangents
     x = jnp.asarray(x)
     decay, tail = _tail(x, sharpness)
-    up, down = jnp.maximum(x, 0) + tail, jnp.maximum(-x, 0) + tail
-    slope = _logistic(x, decay)  # d softplus(x)/dx; d softplus(-x)/dx = slope - 1
-    return (up, down), (slope * dx + (x * slope - up) / sharpness * dsharpness,
-                        (slope - 1) * dx + (x * (slope - 1) - down) / sharpness * dsharpness)
+    y, slope = jnp.maximum(x, 0) + tail, _logistic(x, decay)
+    return y, slope * dx + (x * slope - y) / sharpness * dsharpness
 
 
 def relu(x, sharpness: float | None = None):
@@ -105,11 +96,14 @@ def clip(x, low, high, sharpness: float | None = None):
         return jnp.clip(x, low, high)
     # Two forms of the same function (softplus(z) = z + softplus(-z)); each is used on the side
     # where it saturates to its bound exactly, so round-off never carries x past low or high.
-    above_low, below_low = _softplus_pair(x - low, sharpness)
-    above_high, below_high = _softplus_pair(x - high, sharpness)
-    from_low = low + above_low - above_high
-    from_high = high - below_high + below_low
-    return jnp.where(x < (low + high) / 2, from_low, from_high)
+    # softplus(s (x - low)) and softplus(s (x - high)) with s = +1 below the midpoint, -1 above
+    # it: the two hinges of whichever form is used, and no others.
+    below = x < (low + high) / 2
+    sign = jnp.where(below, 1.0, -1.0)
+    at_low, at_high = softplus(sign * (x - low), sharpness), softplus(sign * (x - high), sharpness)
+    from_low = low + at_low - at_high
+    from_high = high - at_high + at_low
+    return jnp.where(below, from_low, from_high)
 
 
 def abs(x, sharpness: float | None = None):  # noqa: A001  (mirrors jnp.abs)

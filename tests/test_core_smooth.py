@@ -107,8 +107,8 @@ def test_step_and_penalties_against_hard_forms():
 
 
 def test_clip_is_its_two_softplus_forms_to_the_bit():
-    """`clip` computes softplus(z) and softplus(-z) from one exponential and one logarithm; the
-    values are those of the four separate softplus calls, bit for bit."""
+    """`clip` evaluates only the two hinges of the form it returns; the values are those of both
+    forms written out with four softplus calls, bit for bit."""
     xs, low, high, k = jnp.linspace(-3, 4, 2001), -1.0, 2.0, 7.0
     from_low = low + smooth.softplus(xs - low, k) - smooth.softplus(xs - high, k)
     from_high = high - smooth.softplus(high - xs, k) + smooth.softplus(low - xs, k)

@@ -45,7 +45,7 @@ PRICE_DEGREE = 3  # the targets' logits are cubic in the standardised spot/forwa
 # Up to this many paths the daily rollout's reverse pass is the closed form of an elementwise
 # recursion, the faster up to here; beyond it, the scan's own (docs/gas_storage.md, Measurements
 # behind the design).
-ELEMENTWISE_PATHS = 256
+ELEMENTWISE_PATHS = 128
 
 
 def inventory_ceiling(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
@@ -274,13 +274,11 @@ def simulate_basestock(policy: BasestockPolicy, inputs: StorageInputs, scene: Sc
     # Only the inventory is carried through the loop; the flows and cash follow from its daily
     # changes in one vectorised pass (the net flow is exactly the change, smooth or hard). Each
     # path's inventory depends on its own alone, so on few paths the reverse pass is the closed
-    # form of `rollout(elementwise=True)`; on many, the scan's own, where with hard constraints
-    # recomputing each day in the reverse pass is faster than storing it (with smooth ones the
-    # transcendental functions make recomputing dearer; docs/gas_storage.md, Measurements
-    # behind the design).
+    # form of `rollout(elementwise=True)`; on many, the scan's own, recomputing each day rather
+    # than storing it (docs/gas_storage.md, Measurements behind the design).
     elementwise = start.size <= ELEMENTWISE_PATHS
     inventory = jnp.moveaxis(rollout(step, start, inputs.n_days, per_step=(low_t, high_t, floor[1:]),
-                                     elementwise=elementwise, remat=not elementwise and sharpness is None), 0, -1)
+                                     elementwise=elementwise, remat=not elementwise), 0, -1)
     net = jnp.diff(inventory, axis=-1)
     injection, withdrawal, cash = flows_and_cash(inputs, scene, net, prices, jnp.arange(inputs.n_days), sharpness)
     return Schedule(jnp.sum(cash, axis=-1), injection, withdrawal, inventory)
