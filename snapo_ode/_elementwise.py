@@ -8,11 +8,11 @@ diagonal, a_k = dF/dx (k, x_k, d_k), and the cotangents of the states obey
     lambda_n = g_n,    lambda_k = g_k + a_k lambda_{k+1}
 
 (g_k the cotangent of x_k from what follows the rollout). Given the forward states, every a_k
-comes from one forward-mode pass of F vectorised over k, the recurrence from an associative
-scan, and the cotangents of the step data d_k and of whatever F closes over from one reverse
-pass of F vectorised over k. On a CPU a reverse `lax.scan` pays its per-step overhead on every
-operation of the step, twice; this pays it on none (docs/decisions.md, "The adjoint of an
-elementwise recursion").
+comes from one forward-mode pass of F vectorised over k, the recurrence from a reverse scan of
+one multiply-add a step, and the cotangents of the step data d_k and of whatever F closes over
+from one reverse pass of F vectorised over k. On a CPU a reverse `lax.scan` through the step
+pays its per-iteration overhead on every operation of the step; this pays it on one
+(docs/decisions.md, "The adjoint of an elementwise recursion").
 
 Only reverse mode: forward mode (`jax.jvp`) through such a rollout is not defined.
 """
@@ -61,15 +61,16 @@ def _rollout_fwd(perturbed, differentiable, n_steps: int):
 
 
 def _adjoint_states(slopes: jax.Array, cotangents: jax.Array) -> jax.Array:
-    """lambda_k = g_k + a_k lambda_{k+1} (lambda_n = g_n) for every k at once: the affine maps
-    lambda_{k+1} -> g_k + a_k lambda_{k+1} composed from the end by an associative scan."""
-    slopes = jnp.concatenate([slopes, jnp.zeros_like(cotangents[:1])])
+    """lambda_k = g_k + a_k lambda_{k+1} (lambda_n = g_n) for every k, by a reverse scan of one
+    multiply-add a step."""
 
-    def compose(later, earlier):
-        return earlier[0] * later[0], earlier[1] + earlier[0] * later[1]
+    def back(later, slope_and_cotangent):
+        slope, cotangent = slope_and_cotangent
+        earlier = cotangent + slope * later
+        return earlier, earlier
 
-    _, adjoint = jax.lax.associative_scan(compose, (slopes, cotangents), reverse=True)
-    return adjoint
+    _, adjoint = jax.lax.scan(back, cotangents[-1], (slopes, cotangents[:-1]), reverse=True)
+    return jnp.concatenate([adjoint, cotangents[-1:]])
 
 
 @_rollout.def_bwd
