@@ -26,8 +26,10 @@ from ._inputs import StorageInputs
 from ._lattice import interpolate_factor
 from ._model import (
     Schedule,
+    backward_recursion,
     calendar_features,
     feasible_flows,
+    floor_step,
     flow_sharpness,
     flows_and_cash,
     inventory_floor,
@@ -48,11 +50,8 @@ PRICE_DEGREE = 3  # the targets' logits are cubic in the standardised spot/forwa
 ELEMENTWISE_PATHS = 128
 
 
-def inventory_ceiling(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
-    """U_t, shape (T+1,): the most start-of-day inventory that can still be withdrawn down to the
-    terminal requirement by the end: U_T = V_min, U_t = min(U_{t+1} + max_withdrawal
-    g_out(U_{t+1} / capacity), capacity). Gas above it cannot be sold before the end. Exact when
-    g_out does not increase with fill, conservative (lower) otherwise."""
+def _ceiling_step(inputs: StorageInputs, scene: Scene, sharpness: float | None):
+    """`inventory_ceiling`'s backward step, (day, U_{t+1}, _) -> U_t."""
     flow_k = flow_sharpness(inputs, sharpness)
 
     def back(day, later, _):
@@ -60,7 +59,27 @@ def inventory_ceiling(inputs: StorageInputs, scene: Scene, sharpness: float | No
         room = inputs.max_withdrawal * rate_fraction(inputs.withdrawal_ratchet, fill, scene, sharpness)
         return smooth.minimum(later + room, inputs.capacity, flow_k)
 
-    return rollout(back, inputs.terminal_inventory_min, inputs.n_days, elementwise=True)[::-1]
+    return back
+
+
+def inventory_ceiling(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
+    """U_t, shape (T+1,): the most start-of-day inventory that can still be withdrawn down to the
+    terminal requirement by the end: U_T = V_min, U_t = min(U_{t+1} + max_withdrawal
+    g_out(U_{t+1} / capacity), capacity). Gas above it cannot be sold before the end. Exact when
+    g_out does not increase with fill, conservative (lower) otherwise."""
+    return backward_recursion(_ceiling_step(inputs, scene, sharpness), inputs, scene, inputs.terminal_inventory_min)
+
+
+def inventory_bounds(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> tuple[jax.Array, jax.Array]:
+    """(`inventory_floor`, `inventory_ceiling`), each shape (T+1,), from one recursion over the
+    pair (one loop instead of two, in the forward pass and the reverse one)."""
+    floor_back, ceiling_back = floor_step(inputs, scene, sharpness), _ceiling_step(inputs, scene, sharpness)
+
+    def back(day, later, _):
+        return jnp.stack([floor_back(day, later[0], _), ceiling_back(day, later[1], _)])
+
+    bounds = backward_recursion(back, inputs, scene, jnp.stack([inputs.terminal_inventory_min] * 2))
+    return bounds[:, 0], bounds[:, 1]
 
 
 class BasestockPolicy(eqx.Module):
@@ -229,12 +248,14 @@ def make_basestock_policy(scene: Scene, inputs: StorageInputs, *, key, width: in
 
 
 def basestock_targets(policy: BasestockPolicy, inputs: StorageInputs, scene: Scene, log_spot_ratio,
-                      sharpness: float | None, floor: jax.Array | None = None):
+                      sharpness: float | None, floor: jax.Array | None = None, ceiling: jax.Array | None = None):
     """The targets b_L, b_U [MMBtu] for tomorrow's inventory, each shape (paths, T), or (T,)
-    when `log_spot_ratio` (the factor, shape (paths, T)) is None. `floor`: `inventory_floor`
-    when the caller has it (its backward recursion then runs once per simulation)."""
-    floor = (inventory_floor(inputs, scene, sharpness) if floor is None else floor)[1:]
-    ceiling = inventory_ceiling(inputs, scene, sharpness)[1:]
+    when `log_spot_ratio` (the factor, shape (paths, T)) is None. `floor`, `ceiling`:
+    `inventory_floor` and `inventory_ceiling` when the caller has them (their backward recursions
+    then run once per simulation)."""
+    if floor is None or ceiling is None:
+        floor, ceiling = inventory_bounds(inputs, scene, sharpness)
+    floor, ceiling = floor[1:], ceiling[1:]
     calendar = calendar_features(inputs.n_days, policy.harmonics)
     logits = policy.logits(calendar, jnp.log(inputs.forward_curve), log_spot_ratio)
     mid, band = logits[..., 0], jax.nn.softplus(logits[..., 1])
@@ -250,16 +271,16 @@ def simulate_basestock(policy: BasestockPolicy, inputs: StorageInputs, scene: Sc
     continuous in the targets, the prices and the facility's parameters, so its pathwise
     gradient is informative, unlike that of a bang-bang rule."""
     stochastic = scene.has("stochastic_spot")
-    floor = inventory_floor(inputs, scene, sharpness)
+    floor, ceiling = inventory_bounds(inputs, scene, sharpness)
     if stochastic:
         if shocks is None:
             raise ValueError("the stochastic_spot effect needs shocks of shape (paths, T)")
         prices, factor = spot_prices(inputs, shocks)
-        low, high = basestock_targets(policy, inputs, scene, factor, sharpness, floor)
+        low, high = basestock_targets(policy, inputs, scene, factor, sharpness, floor, ceiling)
         low_t, high_t = low.T, high.T
         start = jnp.broadcast_to(inputs.initial_inventory, prices.shape[:1])
     else:
-        low, high = basestock_targets(policy, inputs, scene, None, sharpness, floor)
+        low, high = basestock_targets(policy, inputs, scene, None, sharpness, floor, ceiling)
         prices, low_t, high_t = inputs.forward_curve, low, high
         start = inputs.initial_inventory
     flow_k = flow_sharpness(inputs, sharpness)

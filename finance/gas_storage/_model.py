@@ -87,11 +87,8 @@ def largest_flows(inputs: StorageInputs, scene: Scene) -> tuple[float, float]:
             float(inputs.max_withdrawal) * fraction(inputs.withdrawal_ratchet))
 
 
-def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
-    """L_t, shape (T+1,): the least start-of-day inventory from which V_T >= V_min can still be
-    reached at the maximum injection rate: L_T = V_min, L_t = max(L_{t+1} - (1 - fuel_loss)
-    max_injection g_in(L_{t+1} / capacity), 0). Exact when g_in does not increase with fill
-    (as injection ratchets do), conservative otherwise."""
+def floor_step(inputs: StorageInputs, scene: Scene, sharpness: float | None):
+    """`inventory_floor`'s backward step, (day, L_{t+1}, _) -> L_t, for `snapo_ode.rollout`."""
     kept = kept_fraction(inputs, scene)
     flow_k = flow_sharpness(inputs, sharpness)
 
@@ -100,7 +97,22 @@ def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None
         room = kept * inputs.max_injection * rate_fraction(inputs.injection_ratchet, fill, scene, sharpness)
         return smooth.relu(later - room, flow_k)
 
-    return rollout(back, inputs.terminal_inventory_min, inputs.n_days, elementwise=True)[::-1]
+    return back
+
+
+def backward_recursion(step, inputs: StorageInputs, scene: Scene, terminal: jax.Array) -> jax.Array:
+    """The states of a recursion from the last day back, `terminal` at T, shape (T+1, ...), with
+    the closed-form reverse pass where the simulation is one path too (beside Monte Carlo paths
+    such a recursion's reverse pass is negligible, and the scan compiles faster)."""
+    return rollout(step, terminal, inputs.n_days, elementwise=not scene.has("stochastic_spot"))[::-1]
+
+
+def inventory_floor(inputs: StorageInputs, scene: Scene, sharpness: float | None) -> jax.Array:
+    """L_t, shape (T+1,): the least start-of-day inventory from which V_T >= V_min can still be
+    reached at the maximum injection rate: L_T = V_min, L_t = max(L_{t+1} - (1 - fuel_loss)
+    max_injection g_in(L_{t+1} / capacity), 0). Exact when g_in does not increase with fill
+    (as injection ratchets do), conservative otherwise."""
+    return backward_recursion(floor_step(inputs, scene, sharpness), inputs, scene, inputs.terminal_inventory_min)
 
 
 def feasible_flows(inputs: StorageInputs, scene: Scene, inventory, floor_tomorrow, sharpness: float | None):
