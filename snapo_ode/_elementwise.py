@@ -1,5 +1,6 @@
 """The reverse pass of an elementwise recursion in closed form: one linear recurrence and one
-vectorised pass over every step, instead of a reverse scan through each step's operations.
+linearisation vectorised over every step, instead of a reverse scan through each step's
+operations.
 
 For x_{k+1} = F(k, x_k, d_k), with every entry of x depending only on its own previous entry
 (independent Monte Carlo paths, a scalar state), the Jacobian of a step with respect to x_k is
@@ -7,12 +8,12 @@ diagonal, a_k = dF/dx (k, x_k, d_k), and the cotangents of the states obey
 
     lambda_n = g_n,    lambda_k = g_k + a_k lambda_{k+1}
 
-(g_k the cotangent of x_k from what follows the rollout). Given the forward states, every a_k
-comes from one forward-mode pass of F vectorised over k, the recurrence from a reverse scan of
-one multiply-add a step, and the cotangents of the step data d_k and of whatever F closes over
-from one reverse pass of F vectorised over k. On a CPU a reverse `lax.scan` through the step
-pays its per-iteration overhead on every operation of the step; this pays it on one
-(docs/decisions.md, "The adjoint of an elementwise recursion").
+(g_k the cotangent of x_k from what follows the rollout). Given the forward states, F is
+linearised once, vectorised over every k (`jax.linearize`): the linear map applied forward gives
+every a_k, a reverse scan of one multiply-add a step the recurrence, and the map transposed the
+cotangents of the step data d_k and of whatever F closes over. On a CPU a reverse `lax.scan`
+through the step pays its per-iteration overhead on every operation of the step; this pays it
+on one (docs/decisions.md, "The adjoint of an elementwise recursion").
 
 Only reverse mode: forward mode (`jax.jvp`) through such a rollout is not defined.
 """

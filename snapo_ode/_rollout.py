@@ -76,8 +76,9 @@ def rollout(
       pass memory-bound.
     - `elementwise`: scan only: the state is one array whose entries each depend on their own
       previous value only (a scalar state, independent paths); the reverse pass is then one
-      linear recurrence and one vectorised pass over every step (`elementwise_rollout`), several
-      times faster than the reverse scan on a CPU. Reverse mode only: no `jax.jvp` through it.
+      linear recurrence and one linearisation vectorised over every step (`elementwise_rollout`),
+      several times faster than the reverse scan on a CPU on few paths. Reverse mode only: no
+      `jax.jvp` through it.
 
     **Returns:** the states, each leaf with a leading axis of length `n_steps + 1` (state0 first).
     """
