@@ -42,9 +42,8 @@ def _steps(step, states, per_step):
     return jax.vmap(step)(jnp.arange(states.shape[0]), states, per_step)
 
 
-@eqx.filter_custom_vjp
-def _rollout(differentiable, n_steps: int):
-    step, state0, per_step = differentiable
+def _forward_states(step, state0, per_step, n_steps: int) -> jax.Array:
+    """x_0..x_n by `lax.scan`."""
 
     def body(state, k_and_data):
         k, data = k_and_data
@@ -55,10 +54,15 @@ def _rollout(differentiable, n_steps: int):
     return jnp.concatenate([state0[None], states])
 
 
+@eqx.filter_custom_vjp
+def _rollout(differentiable, n_steps: int):
+    return _forward_states(*differentiable, n_steps)
+
+
 @_rollout.def_fwd
 def _rollout_fwd(perturbed, differentiable, n_steps: int):
-    states = _rollout(differentiable, n_steps)
-    return states, states
+    states = _forward_states(*differentiable, n_steps)
+    return states, states  # the residuals are the states themselves
 
 
 def _adjoint_states(slopes: jax.Array, cotangents: jax.Array) -> jax.Array:

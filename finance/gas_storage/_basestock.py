@@ -32,7 +32,6 @@ from ._model import (
     floor_step,
     flow_sharpness,
     flows_and_cash,
-    inventory_floor,
     rate_fraction,
     spot_prices,
 )
@@ -164,8 +163,7 @@ class BasestockPolicy(eqx.Module):
 def _position_logits(inputs: StorageInputs, scene: Scene, target: np.ndarray) -> np.ndarray:
     """The logits z with `basestock_targets`' position(z) = `target` [MMBtu] for tomorrow's
     inventory, shape (T, ...): the inverse of its map, the target clipped to [floor, ceiling]."""
-    floor = np.asarray(inventory_floor(inputs, scene, None))[1:]
-    ceiling = np.asarray(inventory_ceiling(inputs, scene, None))[1:]
+    floor, ceiling = (np.asarray(bound)[1:] for bound in inventory_bounds(inputs, scene, None))
     floor, ceiling = (np.reshape(bound, bound.shape + (1,) * (np.ndim(target) - 1)) for bound in (floor, ceiling))
     span = np.maximum(ceiling - floor, 1e-9 * float(inputs.capacity))
     position = np.clip((np.asarray(target) - floor) / span, 0.0, 1.0)

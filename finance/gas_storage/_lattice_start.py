@@ -24,11 +24,11 @@ import numpy as np
 
 from snapo_ode import Scene
 
-from ._basestock import inventory_ceiling, target_logits
+from ._basestock import inventory_bounds, target_logits
 from ._inputs import StorageInputs
 from ._lattice import FactorLattice, interpolate_factor, lattice_grid, solve_factor_lattice
 from ._lsmc import InventoryGrid, interpolate_levels, inventory_grid
-from ._model import factor_transition, flows_and_cash, inventory_floor
+from ._model import factor_transition, flows_and_cash
 
 
 START_POINTS = 200  # factor levels of the lattice the start is read from (docs/gas_storage.md, Where the policy starts)
@@ -50,8 +50,7 @@ def lattice_targets(lattice: FactorLattice, inputs: StorageInputs, scene: Scene,
     """`(factor, low, high)`: the levels of x = log(spot / F) the targets are given on, shape
     (G,) (the lattice's levels), and b_L, b_U [MMBtu] for tomorrow's inventory, each (T, G)."""
     levels = jnp.asarray(grid.levels)
-    floor = inventory_floor(inputs, scene, None)[1:]
-    ceiling = inventory_ceiling(inputs, scene, None)[1:]
+    floor, ceiling = (bound[1:] for bound in inventory_bounds(inputs, scene, None))
     shift = factor_transition(inputs).variance / 2  # the lattice's factor is X = x + Var(X_t) / 2
     step = jnp.asarray(grid.spacing)
 
