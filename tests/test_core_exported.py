@@ -10,6 +10,7 @@ backend-compile events less its persistent-cache hits (as in test_core_cache.py)
 an explicit solve (Tsit5: it compiles in 60% of an implicit one's time); exported programs with
 implicit solves (Rodas5's linear solves) run in `snapo pharma sensitivities` (test_pharma_cli.py)."""
 
+import functools
 import json
 import os
 import shutil
@@ -174,6 +175,27 @@ def test_keys_describe_structure_and_refuse_what_differs_between_processes():
         snapo_ode.describe(lambda x: scale * x)
     with pytest.raises(snapo_ode.Unkeyable):
         snapo_ode.describe(object())
+
+
+def _wrapping(fn):
+    @functools.wraps(fn)
+    def wrapped(*args):
+        return fn(*args)
+
+    return wrapped
+
+
+@_wrapping
+def _decorated(x):
+    return x
+
+
+def test_a_decorated_module_level_function_is_keyed_by_its_name_and_another_closure_is_not():
+    # What the module holds under the name is the same object in every process (optimistix's
+    # `max_norm`, in Kvaerno5's root finder, is such a function); a wrapper made elsewhere is not.
+    assert snapo_ode.describe(_decorated) == ["function", f"{__name__}._decorated"]
+    with pytest.raises(snapo_ode.Unkeyable):
+        snapo_ode.describe(_wrapping(_double))
 
 
 def _double(x):

@@ -117,3 +117,13 @@ def test_the_reference_agrees_with_the_bdf_on_the_stiff_units(inputs):
                     for solver in (REFERENCE, REFERENCE.replace(solver="bdf")))
     assert snapo_ode.solver_name(REFERENCE.solver) == snapo_ode.solver_name(REFERENCE.nonstiff_solver) == "kvaerno5"
     assert snapo_ode.agreement(ours, theirs).max_rel_diff <= 5e-9
+
+
+@pytest.mark.parametrize("solver", [CHAIN_SOLVER, REFERENCE, BUMP_SOLVER], ids=["study", "reference", "bumps"])
+@pytest.mark.parametrize("mode", ["reverse", "forward"])
+def test_every_program_of_the_study_can_be_kept_on_disk(solver, mode):
+    # A chain whose description differs between processes is traced again by every process (the
+    # reference's Kvaerno5 root finder holds a decorated function: 10 s a run until it was keyed).
+    settings = solver.replace(differentiation=mode)
+    assert snapo_ode.describe(PharmaChain(solver=settings), values=True) == snapo_ode.describe(
+        PharmaChain(solver=settings), values=True)

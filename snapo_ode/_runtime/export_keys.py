@@ -57,12 +57,27 @@ def describe(tree, *, values: bool = False):
         return [_name(type(tree)), sorted(json.dumps(describe(leaf, values=values)) for leaf in tree)]
     if isinstance(tree, type):
         return ["class", _name(tree)]
-    if isinstance(tree, types.FunctionType) and tree.__closure__ is None and "<" not in tree.__qualname__:
+    if isinstance(tree, types.FunctionType) and _named(tree):
         return ["function", f"{tree.__module__}.{tree.__qualname__}"]
     if dataclasses.is_dataclass(tree):
         return [_name(type(tree)), [[f.name, describe(getattr(tree, f.name), values=values)]
                                     for f in dataclasses.fields(tree)]]
     raise Unkeyable(f"{type(tree).__qualname__} has no description that is the same in every process")
+
+
+def _named(fn: types.FunctionType) -> bool:
+    """Whether `fn` is the same in every process that imports its module: a function defined at
+    module or class level without a closure, or what its module holds under its qualified name (a
+    decorated module-level function, e.g. optimistix's `max_norm`, which Kvaerno5's root finder
+    holds, closes over the function it wraps)."""
+    if "<" in fn.__qualname__:
+        return False
+    if fn.__closure__ is None:
+        return True
+    owner = sys.modules.get(fn.__module__)
+    for part in fn.__qualname__.split("."):
+        owner = getattr(owner, part, None)
+    return owner is fn
 
 
 def _packages(description) -> set[str]:
