@@ -16,8 +16,10 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import pytest
 
@@ -200,6 +202,21 @@ def test_a_decorated_module_level_function_is_keyed_by_its_name_and_another_clos
 
 def _double(x):
     return (2 * x,)
+
+
+def _apply(fn, x):
+    return (fn(x),)
+
+
+def test_an_argument_that_cannot_be_keyed_warns_outside_a_jit_and_not_inside():
+    program = snapo_ode.exported(_apply, name="test-apply")
+    with pytest.warns(UserWarning, match="test-apply cannot be kept on disk .*traced in every process"):
+        (value,) = program(lambda x: 3 * x, jnp.ones(2))
+    assert value.tolist() == [3.0, 3.0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        (inside,) = jax.jit(lambda x: program(lambda y: 3 * y, x))(jnp.ones(2))
+    assert inside.tolist() == [3.0, 3.0] and not [w for w in caught if "cannot be kept" in str(w.message)]
 
 
 def test_new_arrays_of_the_same_shapes_reuse_the_entry_without_describing_it_again(monkeypatch):

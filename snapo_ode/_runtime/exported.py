@@ -20,7 +20,8 @@ An entry's key (`snapo_ode._runtime.export_keys`) is everything that shapes the 
   keys), the backend, float64, the default matmul precision and equinox's runtime-check mode.
 
 An argument that cannot be described the same way in every process (a closure, an object
-without a structural description) is refused with `Unkeyable` rather than keyed by its address.
+without a structural description) is refused with `Unkeyable` rather than keyed by its address:
+the program is then jitted as before, with a warning (none for a call inside another jit).
 A file is written atomically and sealed to its key (`snapo_ode._platform.cache_trust`); one that is corrupt,
 another key's, or does not deserialise is rebuilt with a warning, never trusted; a program that cannot be exported (a
 host callback, an unstable custom call) runs through `jax.jit` as before, with a warning.
@@ -134,7 +135,12 @@ class ExportedProgram:
             arguments = describe(args)
             return entry_path(self._name, {"name": self._name, "static": self._static_key, "args": arguments,
                                            "environment": environment(self._packages | _packages(arguments))})
-        except Unkeyable:
+        except Unkeyable as error:
+            # Inside another jit there is nothing to keep; outside, a program that every process
+            # traces again is a cost the caller should see (a reference's 10 s went unseen).
+            if not any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)):
+                warnings.warn(f"snapo: {self._name} cannot be kept on disk ({error}); it is traced in every "
+                              "process", stacklevel=5)
             return None
 
     def _path(self, args, every, structure) -> pathlib.Path | None:
@@ -297,6 +303,7 @@ def exported(fn: Callable, *, name: str, static=None, compiler_options: dict | N
 
     **Returns:** an `ExportedProgram`, a function of the same arguments (with `prefetch`).
     Without a compilation cache directory, or with an argument that cannot be keyed
-    (`Unkeyable`: a closure, a traced value), it is `fn` jitted (`equinox.filter_jit`).
+    (`Unkeyable`: a closure, a traced value), it is `fn` jitted (`equinox.filter_jit`); for a
+    closure with a warning, since every process then traces it.
     """
     return ExportedProgram(fn, name, static, compiler_options)
