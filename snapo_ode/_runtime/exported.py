@@ -137,7 +137,7 @@ class ExportedProgram:
                                            "environment": environment(self._packages | _packages(arguments))})
         except Unkeyable as error:
             # Inside another jit there is nothing to keep; outside, a program that every process
-            # traces again is a cost the caller should see (a reference's 10 s went unseen).
+            # traces again is a cost the caller should see, not a silent fallback.
             if not any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)):
                 warnings.warn(f"snapo: {self._name} cannot be kept on disk ({error}); it is traced in every "
                               "process", stacklevel=5)
