@@ -73,6 +73,32 @@ def test_a_swapped_or_corrupt_cache_entry_is_rebuilt_and_replaced(tmp_path):
     assert _cached_value(cache, 1.0)[1] + _cached_value(cache, 2.0)[1] == 1
 
 
+SEAL_KEY_SCRIPT = """
+import sys, time
+from snapo_ode._platform.cache_trust import directory_secret
+start = float(sys.argv[2])
+while time.time() < start:
+    pass
+print(directory_secret(sys.argv[1]).hex())
+"""
+
+
+def test_processes_that_open_a_new_cache_at_once_share_one_whole_seal_key(tmp_path):
+    # Before: the first process created the key file empty and wrote it after; the others read it
+    # in between and refused the cache ("not a private 32-byte file"), both pytest workers on a
+    # clean machine among them (18 of 20 such races failed).
+    for trial in range(4):
+        cache = tmp_path / f"cache{trial}"
+        cache.mkdir(mode=0o700)
+        start = time.time() + 1.0
+        runs = [subprocess.Popen([sys.executable, "-c", SEAL_KEY_SCRIPT, str(cache), str(start)], text=True,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE) for _ in range(6)]
+        outputs = [run.communicate() for run in runs]
+        assert all(run.returncode == 0 for run in runs), [err[-300:] for _, err in outputs]
+        assert len({out for out, _ in outputs}) == 1 and len(bytes.fromhex(outputs[0][0].strip())) == 32
+        assert sorted(path.name for path in cache.iterdir()) == [".snapo-seal-key"]  # no temporary left
+
+
 def test_a_cache_others_can_write_or_that_is_a_file_is_refused(tmp_path, capsys, monkeypatch):
     shared = tmp_path / "shared"
     shared.mkdir()

@@ -5,9 +5,10 @@ program this process will run, so whoever can write the cache directory controls
   that its group or others can write (mode `g+w` or `o+w`), with the `chmod` that fixes it;
   `configure` creates the directory with mode 0700.
 - **Sealed entries.** Every entry carries an HMAC-SHA256 of its key and its bytes under a secret
-  kept in the directory (`SEAL_KEY`, mode 0600, created on first use). An entry that fails the
-  check (truncated, altered, or another key's entry copied under this key's name) is a miss: it
-  is rebuilt, and the rebuilt entry replaces it, with one warning.
+  kept in the directory (`SEAL_KEY`, mode 0600, created whole on first use: processes that open
+  a new cache at once share one key). An entry that fails the check (truncated, altered, or
+  another key's entry copied under this key's name) is a miss: it is rebuilt, and the rebuilt
+  entry replaces it, with one warning.
 - A sealed store is the JAX compilation cache's (`install`, through JAX's
   `compilation_cache.get_file_cache`, a private hook of the JAX releases we admit); the export cache
   (`snapo_ode._runtime.exported`) seals its entries with `seal` / `unseal` too.
@@ -21,7 +22,7 @@ import secrets
 import stat
 import warnings
 
-from .files import atomic_write_bytes
+from .files import atomic_write_bytes, create_whole
 
 SEAL_KEY = ".snapo-seal-key"
 TAG_BYTES = 32
@@ -47,13 +48,8 @@ def check_private(directory: pathlib.Path) -> None:
 
 def _secret(directory: pathlib.Path) -> bytes:
     path = directory / SEAL_KEY
-    try:
-        descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-    except FileExistsError:
-        pass
-    else:
-        with os.fdopen(descriptor, "wb") as handle:
-            handle.write(secrets.token_bytes(TAG_BYTES))
+    if not path.exists():
+        create_whole(path, secrets.token_bytes(TAG_BYTES), 0o600)
     info = path.lstat()
     if not stat.S_ISREG(info.st_mode) or info.st_mode & 0o077 or info.st_size != TAG_BYTES:
         raise CacheUnavailable(f"the cache's seal key {str(path)!r} is not a private {TAG_BYTES}-byte file (mode "

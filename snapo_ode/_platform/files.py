@@ -61,9 +61,9 @@ def _is_stream(path: pathlib.Path) -> bool:
     return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
 
 
-def _write_temporary(path: pathlib.Path, data: bytes) -> pathlib.Path:
-    """`data` in a new temporary file beside `path`, flushed to disk, with the mode `path` has
-    (or the umask allows); returns the temporary path."""
+def _write_temporary(path: pathlib.Path, data: bytes, mode: int | None = None) -> pathlib.Path:
+    """`data` in a new temporary file beside `path`, flushed to disk, with `mode` (default: the
+    mode `path` has, or the umask allows); returns the temporary path."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
@@ -71,7 +71,8 @@ def _write_temporary(path: pathlib.Path, data: bytes) -> pathlib.Path:
             handle.write(data)
             handle.flush()
             os.fsync(handle.fileno())
-        mode = path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask()
+        if mode is None:
+            mode = path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask()
         os.chmod(tmp, mode)
     except BaseException:
         pathlib.Path(tmp).unlink(missing_ok=True)
@@ -93,6 +94,20 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> pathlib.Path:
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def create_whole(path: pathlib.Path, data: bytes, mode: int) -> bool:
+    """Write `data` to `path` with `mode` unless `path` exists, so that no reader, in this or
+    another process, ever sees it part-written: a complete temporary file is hard-linked into
+    place, and the link fails where another process got there first. Whether this call wrote it."""
+    tmp = _write_temporary(path, data, mode)
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        return False
+    finally:
+        tmp.unlink()
+    return True
 
 
 def json_bytes(payload: Any) -> bytes:
