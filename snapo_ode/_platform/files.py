@@ -96,18 +96,17 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> pathlib.Path:
     return path
 
 
-def create_whole(path: pathlib.Path, data: bytes, mode: int) -> bool:
+def create_whole(path: pathlib.Path, data: bytes, mode: int) -> None:
     """Write `data` to `path` with `mode` unless `path` exists, so that no reader, in this or
     another process, ever sees it part-written: a complete temporary file is hard-linked into
-    place, and the link fails where another process got there first. Whether this call wrote it."""
+    place, and the link fails where another process got there first (that file is kept)."""
     tmp = _write_temporary(path, data, mode)
     try:
         os.link(tmp, path)
     except FileExistsError:
-        return False
+        pass
     finally:
         tmp.unlink()
-    return True
 
 
 def json_bytes(payload: Any) -> bytes:
