@@ -1,8 +1,11 @@
 """Training checkpoints: one file, written atomically, holding a JSON line (`CheckpointInfo`: the
-progress, the history and the run's fingerprint) and the parameters and optimizer state
-(equinox-serialised). A checkpoint is read like any user file: its header is checked by a schema,
-and a run resumes from it only when its fingerprint (`snapo_ode._fingerprint`) is the run's own."""
+progress, the history and the run's fingerprint, and `checksum`) and the parameters and optimizer
+state (equinox-serialised). A checkpoint is read like any user file: its checksum (the SHA-256 of
+the header without it and of every byte after it) must match, so a changed or damaged byte is
+refused rather than resumed; its header is checked by a schema; and a run resumes from it only
+when its fingerprint (`snapo_ode._fingerprint`) is the run's own."""
 
+import hashlib
 import io
 import json
 import os
@@ -16,6 +19,12 @@ from ._platform.schema import STRICT_SCHEMA, validate
 from ._platform.validation import InputError
 
 MAX_HEADER_BYTES = 64 * 2**20
+CHECKSUM = "checksum"
+
+
+def _checksum(header: bytes, payload: bytes) -> str:
+    """`sha256:` and the hex SHA-256 of the header line (without its checksum) and the payload."""
+    return "sha256:" + hashlib.sha256(header + b"\n" + payload).hexdigest()
 
 
 class CheckpointInfo(pydantic.BaseModel):
@@ -50,7 +59,32 @@ def save_checkpoint(path: str | os.PathLike, best_params, info: dict, resume_sta
     eqx.tree_serialise_leaves(buffer, best_params)
     if resume_state is not None:
         eqx.tree_serialise_leaves(buffer, resume_state)
-    atomic_write_bytes(path, json.dumps(info, allow_nan=False).encode() + b"\n" + buffer.getvalue())
+    info = {name: value for name, value in info.items() if name != CHECKSUM}
+    payload = buffer.getvalue()
+    checksum = _checksum(json.dumps(info, allow_nan=False).encode(), payload)
+    atomic_write_bytes(path, json.dumps({**info, CHECKSUM: checksum}, allow_nan=False).encode() + b"\n" + payload)
+
+
+def _verified(handle, where: str) -> tuple[dict, io.BytesIO]:
+    """The header (without its checksum) and the payload of the open checkpoint `handle`, once
+    the checksum matches."""
+    try:
+        header = json.loads(handle.readline(MAX_HEADER_BYTES))
+    except (ValueError, RecursionError):
+        raise InputError(f"{where}: the first line is not a checkpoint's JSON header.") from None
+    if not isinstance(header, dict) or not isinstance(header.get(CHECKSUM), str):
+        raise InputError(f"{where} has no checksum: it was not written by this version of snapo-ode, or is not "
+                         "a checkpoint.")
+    saved = header.pop(CHECKSUM)
+    payload = handle.read()
+    try:
+        checksum = _checksum(json.dumps(header, allow_nan=False).encode(), payload)
+    except ValueError:
+        checksum = None
+    if checksum != saved:
+        raise InputError(f"{where} is corrupt: its checksum ({saved[:24]!r}) does not match its content (changed or "
+                         "damaged since it was written).")
+    return header, io.BytesIO(payload)
 
 
 def load_checkpoint(path: str | os.PathLike, like, resume_like=None):
@@ -58,20 +92,18 @@ def load_checkpoint(path: str | os.PathLike, like, resume_like=None):
     or with `resume_like` `(best_params, info, resume_state)`; `info` a dict of
     `CheckpointInfo`'s fields.
 
-    **Raises:** `InputError` naming the file when it is not such a checkpoint (unreadable, a
-    header the schema refuses, parameters of another shape)."""
+    **Raises:** `InputError` naming the file when it is not such a checkpoint (unreadable, no
+    checksum or one that does not match, a header the schema refuses, parameters of another
+    shape)."""
     where = f"checkpoint {str(path)!r}"
     try:
         with open(path, "rb") as handle:
-            try:
-                header = json.loads(handle.readline(MAX_HEADER_BYTES))
-            except (ValueError, RecursionError):
-                raise InputError(f"{where}: the first line is not a checkpoint's JSON header.") from None
-            info = validate(CheckpointInfo, header, where).model_dump()
-            best = eqx.tree_deserialise_leaves(handle, like)
-            if resume_like is None:
-                return best, info
-            return best, info, eqx.tree_deserialise_leaves(handle, resume_like)
+            header, payload = _verified(handle, where)
+        info = validate(CheckpointInfo, header, where).model_dump()
+        best = eqx.tree_deserialise_leaves(payload, like)
+        if resume_like is None:
+            return best, info
+        return best, info, eqx.tree_deserialise_leaves(payload, resume_like)
     except InputError as error:
         raise InputError(f"{error} Delete it or drop --resume.") from None
     except (OSError, ValueError, RuntimeError, KeyError, TypeError, EOFError) as error:

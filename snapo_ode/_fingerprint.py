@@ -4,12 +4,18 @@ A fingerprint is a mapping from a part's name (`inputs`, `settings`, `seed`, ...
 its value: the SHA-256 of its pytree structure and of every leaf (array leaves by dtype, shape and
 bytes; other leaves, and static data, by `repr` with sets sorted and memory addresses removed,
 so that the digest is the same in every process). `versions` (this package and the numerical stack it runs on) is always added, in
-words, so that a mismatch can be shown. `differences(saved, current)` names the parts that differ.
+words, so that a mismatch can be shown. Within `reading_files(files)` (the command line sets it
+around a command), each input file's content is a part as well (`file --scenarios`: the SHA-256 of
+its bytes), so a checkpoint trained on one file is not resumed on another, whatever was made of
+the file on the way. `differences(saved, current)` names the parts that differ.
 """
 
+import contextlib
+import contextvars
 import hashlib
+import os
 import re
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 
 import jax
 import numpy as np
@@ -17,6 +23,7 @@ import numpy as np
 from ._platform.versions import in_words
 
 _ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
+_INPUT_FILES: contextvars.ContextVar[Mapping[str, str]] = contextvars.ContextVar("input_files", default={})
 
 
 def package_versions() -> str:
@@ -65,10 +72,31 @@ def digest_of(value) -> str:
     return digest.hexdigest()[:16]
 
 
+def file_digest(path: str | os.PathLike) -> str:
+    """A 16-hex-digit digest of the bytes of the file at `path`."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(2**20), b""):
+            digest.update(block)
+    return digest.hexdigest()[:16]
+
+
+@contextlib.contextmanager
+def reading_files(files: Mapping[str, str | os.PathLike]) -> Iterator[None]:
+    """Within it, every `run_fingerprint` holds `file NAME`, the `file_digest` of each input file
+    (name, e.g. a flag, -> path), as read on entering."""
+    token = _INPUT_FILES.set({f"file {name}": file_digest(path) for name, path in files.items()})
+    try:
+        yield
+    finally:
+        _INPUT_FILES.reset(token)
+
+
 def run_fingerprint(parts: Mapping[str, object]) -> dict[str, str]:
-    """The fingerprint of a run defined by `parts` (name -> value): each part's `digest_of`, and
-    `versions`, the `package_versions` in words."""
-    return {**{name: digest_of(value) for name, value in parts.items()}, "versions": package_versions()}
+    """The fingerprint of a run defined by `parts` (name -> value): each part's `digest_of`, the
+    input files' digests (see `reading_files`), and `versions`, the `package_versions` in words."""
+    return {**{name: digest_of(value) for name, value in parts.items()}, **_INPUT_FILES.get(),
+            "versions": package_versions()}
 
 
 def differences(saved: Mapping[str, str], current: Mapping[str, str]) -> list[str]:

@@ -27,6 +27,13 @@ written with the CSV (exit 0), so a long computation is not lost for want of a b
 Verbs that train also get `--checkpoint` and `--resume` (`add_training_options`); verbs whose
 samples split over devices get `--devices N` and the multi-process options (`add_device_options`).
 
+Every input file a flag of type `pathlib.Path` names is part of a training checkpoint's
+fingerprint by content (`snapo_ode._fingerprint.reading_files`), so `--resume` refuses a checkpoint
+trained on another file. Outputs that exist and are not regular files (/dev/null, a named pipe, a
+device, a directory) are refused before any computation. What the command prints is escaped for
+the terminal (`snapo_ode._runtime.terminal`): control characters from a user's text, and what the
+locale's encoding cannot show.
+
 Exit codes (`snapo_ode._runtime.exits`): 0 success; 2 a user mistake (`InputError`: a one-line `snapo:
 error: ...` naming the field, the value and what is allowed); 3 a failed solve or training; 4 the
 environment (disk full, unwritable or untrusted cache); 130 / 143 interrupted by SIGINT / SIGTERM
@@ -35,6 +42,7 @@ Heavy imports (JAX, the models) happen inside the handlers, so `snapo --help` st
 """
 
 import argparse
+import os
 import pathlib
 import sys
 from collections.abc import Callable, Sequence
@@ -43,26 +51,48 @@ from importlib.metadata import entry_points
 from ._runtime.exits import EXIT_INPUT_ERROR, configure_or_warn, ended
 from ._runtime.first_result import add_first_result_bench
 from ._runtime.options import OneLineParser, VersionAction, count, number, positive
+from ._runtime.terminal import safe_streams
 from ._platform.validation import InputError
 
 __all__ = ["CommandLine", "OneLineParser", "add_common_options", "add_device_options", "add_training_options",
            "build", "count", "main", "number", "parse", "positive", "publish_report"]
 PLUGIN_GROUP = "snapo_ode.plugins"
 DEFAULT_OUT = pathlib.Path("snapo-out")
+OUTPUT_FLAGS = ("out", "json", "checkpoint")  # with every `write_*`: the paths a command writes
+
+
 def check_output_paths(args: argparse.Namespace) -> None:
-    """Refuse, before any computation, outputs that could not be written: `--json` naming a
-    directory or under an unwritable one, `--out` naming a file; for a report, an `--out` holding
-    files that no earlier report wrote (the report replaces its directory whole)."""
+    """Refuse, before any computation, outputs that could not be written: `--json` or
+    `--checkpoint` naming anything but a regular file or a new path (a directory, /dev/null, a
+    named pipe) or under an unwritable directory, `--out` naming anything but a directory; for a
+    report, an `--out` holding anything but a report written before and unchanged since (the
+    report replaces its directory whole)."""
     from ._platform.files import check_replaceable_directory, check_writable_under, output_target
 
     if args.out.exists() and not args.out.is_dir():
-        raise InputError(f"--out = {str(args.out)!r} is an existing file; give a directory.")
-    output_target(args.json, "--json")
-    check_writable_under(args.json.resolve().parent, "--json")
+        raise InputError(f"--out = {str(args.out)!r} exists and is not a directory; give a directory.")
+    for flag in ("json", "checkpoint"):
+        path = getattr(args, flag, None)
+        if path is not None:
+            output_target(path, f"--{flag}")
+            check_writable_under(path.resolve().parent, f"--{flag}")
     check_writable_under(args.out.resolve(), "--out")
     if getattr(args, "report_directory", False):
         check_replaceable_directory(args.out, "--out")
         check_pdf_printer(args)
+
+
+def input_files(args: argparse.Namespace) -> dict[str, pathlib.Path]:
+    """The input files of the command: each `pathlib.Path` value (or list of them) naming a
+    regular file, but the outputs (`OUTPUT_FLAGS`, `--write-*`); flag -> path."""
+    files = {}
+    for name, value in vars(args).items():
+        if name in OUTPUT_FLAGS or name.startswith("write_"):
+            continue
+        for i, path in enumerate(value if isinstance(value, list) else [value]):
+            if isinstance(path, pathlib.Path) and path.is_file() and os.access(path, os.R_OK):
+                files[f"--{name.replace('_', '-')}{f' #{i + 1}' if isinstance(value, list) else ''}"] = path
+    return files
 
 
 def check_pdf_printer(args: argparse.Namespace) -> None:
@@ -292,6 +322,11 @@ def parse(cli: CommandLine, argv: Sequence[str] | None = None) -> argparse.Names
 
 def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> int:
     """Entry point of the `snapo` console script."""
+    with safe_streams():
+        return _main(argv, plugins)
+
+
+def _main(argv: Sequence[str] | None, plugins: Sequence[Callable[[CommandLine], None]] | None) -> int:
     cli = build(plugins)
     try:
         args = parse(cli, argv)
@@ -314,7 +349,10 @@ def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandL
 
             mesh = sample_mesh(args.devices)
             args.mesh = mesh if mesh.size > 1 else None
-        return int(handler(args) or 0)
+        from ._fingerprint import reading_files
+
+        with reading_files(input_files(args)):
+            return int(handler(args) or 0)
 
     return ended(run, debug=args.debug, checkpoint=getattr(args, "checkpoint", None))
 

@@ -1,6 +1,8 @@
 """Training: converges on a problem with a known optimum, is deterministic, stops early, guards
 against NaN naming the step, and checkpoints atomically."""
 
+import hashlib
+import json
 import os
 import jax
 import jax.numpy as jnp
@@ -141,16 +143,30 @@ def test_resume_refuses_the_checkpoint_of_another_run_naming_what_differs(tmp_pa
 ])
 def test_a_malformed_checkpoint_is_a_one_line_input_error(tmp_path, header, message):
     path = tmp_path / "run.ckpt"
-    path.write_bytes(header + b"\n" + b"\x00" * 16)
+    path.write_bytes(sealed(header, b"\x00" * 16))
     with pytest.raises(snapo_ode.InputError, match=message) as caught:
         snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=5, progress=False, checkpoint_path=path, resume=True)
     assert "\n" not in str(caught.value) and str(path) in str(caught.value)
+
+
+def sealed(header: bytes, payload: bytes) -> bytes:
+    """A checkpoint file of `header` (a JSON object) and `payload`, its checksum the SHA-256 of both."""
+    if not header.startswith(b"{"):
+        return header + b"\n" + payload
+    checksum = "sha256:" + hashlib.sha256(header + b"\n" + payload).hexdigest()
+    return header[:-1] + f', "checksum": "{checksum}"}}'.encode() + b"\n" + payload
 
 
 def test_a_truncated_checkpoint_is_an_input_error(tmp_path):
     path = tmp_path / "run.ckpt"
     snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=5, progress=False, checkpoint_path=path)
     path.write_bytes(path.read_bytes()[:-20])
+    with pytest.raises(snapo_ode.InputError, match="is corrupt: its checksum"):
+        snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=5, progress=False, checkpoint_path=path, resume=True)
+    header, payload = path.read_bytes().split(b"\n", 1)
+    cut = json.loads(header)  # a body cut short under a checksum that matches: the leaves cannot be read
+    del cut["checksum"]
+    path.write_bytes(sealed(json.dumps(cut).encode(), payload[:-20]))
     with pytest.raises(snapo_ode.InputError, match="cannot be read"):
         snapo_ode.train(quadratic_loss, {"x": jnp.zeros(2)}, steps=5, progress=False, checkpoint_path=path, resume=True)
 

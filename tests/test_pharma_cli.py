@@ -53,8 +53,8 @@ def test_a_loose_tolerance_warns_and_strict_refuses(tmp_path, capsys):
     (["--without", "cristallization"], "cristallization"),
     (["--mode", "sideways"], "mode"),
 ])
-def test_bad_input_is_an_error_naming_the_field(argv, field, capsys):
-    assert main(["pharma", "sensitivities", "--json", "/dev/null", *argv]) == 2
+def test_bad_input_is_an_error_naming_the_field(argv, field, capsys, tmp_path):
+    assert main(["pharma", "sensitivities", "--json", str(tmp_path / "s.json"), *argv]) == 2
     assert field in capsys.readouterr().err
 
 

@@ -9,13 +9,16 @@ command form a set that a reader sees old or new, never mixed.
   replace the old files in the order given, the index (the JSON that names the others, with their
   SHA-256) last.
 - `publish_directory`: a whole directory (a report): written as a temporary sibling and swapped
-  in, so the old directory or the new one is there, never a mix. Only a directory this function
-  wrote before (it holds `MANIFEST`) or an empty one is replaced.
+  in, so the old directory or the new one is there, never a mix. Only an empty directory, or one
+  this function wrote and nobody changed since, is replaced: its `MANIFEST.json` is this
+  package's and it holds exactly the files the manifest lists, with their SHA-256. Anything else
+  (a user's file beside the report, an edited report file, a MANIFEST.json of another tool) is
+  refused with `InputError`, so a user's file is never deleted.
 
 Symbolic links are written through (`output_target`): the link stays and its target gets the new
-content, atomically. A stream (a character device such as /dev/null or /dev/stdout, a named pipe)
-is written into, never replaced; any other target that is not a regular file (a directory, a
-block device, a socket) is refused with `InputError`.
+content, atomically. A target that exists and is not a regular file (a directory, a device such as
+/dev/null, a named pipe, a socket) is refused with `InputError`: a result written into /dev/null
+would be lost with exit 0, and a pipe without a reader would hang the run after its work was done.
 """
 
 import hashlib
@@ -31,6 +34,7 @@ from typing import Any
 from .validation import InputError
 
 MANIFEST = "MANIFEST.json"
+WRITER = "snapo-ode publish_directory"  # the manifest's `written_by`
 
 
 def _umask() -> int:
@@ -43,22 +47,25 @@ def output_target(path: str | os.PathLike, what: str = "output") -> pathlib.Path
     """The file a write to `path` replaces: `path` with every symbolic link followed.
 
     **Raises:** `InputError` naming `what` (e.g. "--json") when that file exists and is not a
-    regular file (a directory, a device such as /dev/null, a pipe or a socket)."""
+    regular file (a directory, a device such as /dev/null, a named pipe or a socket)."""
     target = pathlib.Path(os.path.realpath(path))
-    if target.exists() and not target.is_file() and not _is_stream(target):
-        kind = "a directory" if target.is_dir() else "not a regular file (a block device or a socket)"
+    kind = _kind(target)
+    if kind is not None:
         raise InputError(f"{what} = {str(path)!r}{f' (-> {str(target)!r})' if target != pathlib.Path(path) else ''} "
-                         f"is {kind}; give the path of a file to write.")
+                         f"is {kind}, not a regular file; give the path of a file to write.")
     return target
 
 
-def _is_stream(path: pathlib.Path) -> bool:
-    """Whether `path` is a character device or a named pipe, written into rather than replaced."""
+def _kind(path: pathlib.Path) -> str | None:
+    """What `path` is when it exists and is not a regular file ("a directory", "a named pipe", ...),
+    else None. Never opens it (opening a pipe without a writer would block)."""
     try:
         mode = path.stat().st_mode
     except OSError:
-        return False
-    return stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)
+        return None
+    kinds = ((stat.S_ISREG, None), (stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe"),
+             (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    return next((kind for test, kind in kinds if test(mode)), "not a regular file")
 
 
 def _write_temporary(path: pathlib.Path, data: bytes, mode: int | None = None) -> pathlib.Path:
@@ -83,10 +90,6 @@ def _write_temporary(path: pathlib.Path, data: bytes, mode: int | None = None) -
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> pathlib.Path:
     """Write `data` to `path` through a temporary file in the same directory and `os.replace`."""
     path = output_target(path)
-    if _is_stream(path):
-        with open(path, "wb") as stream:
-            stream.write(data)
-        return path
     tmp = _write_temporary(path, data)
     try:
         os.replace(tmp, path)
@@ -133,36 +136,58 @@ def publish(files: Mapping[str | os.PathLike, bytes]) -> list[pathlib.Path]:
     target in the order given (put the index, the file naming the others, last). Returns the
     paths. Nothing is replaced if any temporary write fails."""
     temporaries: list[tuple[pathlib.Path, pathlib.Path]] = []
-    streams = {}
     try:
         for path, data in files.items():
             path = output_target(path)
-            if _is_stream(path):
-                streams[path] = data
-            else:
-                temporaries.append((_write_temporary(path, data), path))
+            temporaries.append((_write_temporary(path, data), path))
         for tmp, path in temporaries:
             os.replace(tmp, path)
     finally:
         for tmp, _ in temporaries:
             tmp.unlink(missing_ok=True)
-    for path, data in streams.items():
-        atomic_write_bytes(path, data)
-    return [path for _, path in temporaries] + list(streams)
+    return [path for _, path in temporaries]
 
 
 def check_replaceable_directory(out: str | os.PathLike, what: str = "--out") -> pathlib.Path:
     """Raise `InputError` unless `out` is absent, an empty directory, or one `publish_directory`
-    wrote (it holds MANIFEST.json): anything else would be deleted by the swap. Also refuses an
-    existing file and a parent that cannot be written. Call it before computing."""
+    wrote and nobody changed since (`_not_ours`): anything else would be deleted by the swap.
+    Also refuses an existing file and a parent that cannot be written. Call it before computing."""
     out = pathlib.Path(out)
     if out.exists() and not out.is_dir():
-        raise InputError(f"{what} = {str(out)!r} is an existing file; give a directory.")
-    if out.is_dir() and any(out.iterdir()) and not (out / MANIFEST).is_file():
-        raise InputError(f"{what} = {str(out)!r} holds files that no earlier run wrote (no {MANIFEST}); it "
-                         "would be replaced whole: give a new or empty directory.")
+        raise InputError(f"{what} = {str(out)!r} exists and is not a directory; give a directory.")
+    if out.is_dir() and any(out.iterdir()):
+        reason = _not_ours(out)
+        if reason is not None:
+            raise InputError(f"{what} = {str(out)!r} {reason}; it would be replaced whole, so nothing is written: "
+                             "give a new or empty directory, or move that file away.")
     check_writable_under(out.resolve().parent, what)
     return out
+
+
+def _not_ours(out: pathlib.Path) -> str | None:
+    """Why the directory `out` is not one `publish_directory` wrote as it stands, or None: its
+    manifest must be this package's, and the directory must hold exactly the files it lists,
+    each with its SHA-256."""
+    try:
+        manifest = json.loads((out / MANIFEST).read_bytes())
+    except FileNotFoundError:
+        return f"holds files that no earlier run wrote (no {MANIFEST})"
+    except (OSError, ValueError, RecursionError):
+        return f"holds a {MANIFEST} that this package did not write"
+    listed = manifest.get("files") if isinstance(manifest, dict) else None
+    if (manifest.get("written_by") if isinstance(manifest, dict) else None) not in (WRITER, None) or not (
+            isinstance(listed, dict) and all(isinstance(v, str) for v in listed.values())):
+        return f"holds a {MANIFEST} that this package did not write"
+    for entry in sorted(out.iterdir()):
+        if entry.name != MANIFEST and entry.name not in listed:
+            return f"holds {entry.name!r}, which its {MANIFEST} does not list (a file no earlier report wrote)"
+    for name, digest in listed.items():
+        path = out / name
+        if pathlib.Path(name).name != name or path.is_symlink() or not path.is_file():
+            return f"lacks {name!r}, which its {MANIFEST} lists"
+        if sha256(path.read_bytes()) != digest:
+            return f"holds {name!r}, changed since the report was written (its SHA-256 is not its {MANIFEST}'s)"
+    return None
 
 
 def check_writable_under(directory: str | os.PathLike, what: str) -> None:
@@ -186,7 +211,7 @@ def publish_directory(out: str | os.PathLike, files: Mapping[str, bytes]) -> lis
     staging = pathlib.Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp"))
     try:
         os.chmod(staging, 0o777 & ~_umask())
-        manifest = {"files": {name: sha256(data) for name, data in files.items()}}
+        manifest = {"written_by": WRITER, "files": {name: sha256(data) for name, data in files.items()}}
         for name, data in {**files, MANIFEST: json_bytes(manifest)}.items():
             atomic_write_bytes(staging / name, data)
         if out.exists():
