@@ -68,10 +68,16 @@ a{color:inherit;text-decoration:none}
 """
 
 
+def _css_string(text: str) -> str:
+    """`text` as the inside of a CSS string: every character but letters, digits and spaces as a
+    six-digit CSS escape, so no quote, backslash, newline or `</style>` in a user's name can end
+    the string or the style sheet."""
+    return "".join(c if c.isascii() and (c.isalnum() or c == " ") else f"\\{ord(c):06x}" for c in text)
+
+
 def _page_css(report: Report) -> str:
-    title = report.title.replace("\\", "\\\\").replace('"', '\\"')
     return ("@page{size:A4;margin:15mm 13mm 17mm 13mm;"
-            f'@top-left{{content:"{title}";font:7.5pt "DejaVu Sans",sans-serif;color:#5b6570}}'
+            f'@top-left{{content:"{_css_string(report.title)}";font:7.5pt "DejaVu Sans",sans-serif;color:#5b6570}}'
             '@bottom-center{content:"Page " counter(page) " of " counter(pages);'
             'font:7.5pt "DejaVu Sans",sans-serif;color:#5b6570}}')
 

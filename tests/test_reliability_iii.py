@@ -1,0 +1,118 @@
+"""Reliability III: nothing silent or unsafe. A checkpoint resumes only on the inputs it was
+trained on, byte for byte, and only when its own bytes are intact; a user's text is text in a
+report's HTML and PDF, never markup; an output never replaces what the run did not create, and a
+path that cannot hold a result is refused before any work; the terminal gets escaped text in any
+locale; a signal ends a run with its exit code at any phase."""
+
+import json
+import os
+import pathlib
+import re
+import subprocess
+import sys
+from html.parser import HTMLParser
+
+import numpy as np
+import pytest
+
+import snapo_ode
+from snapo_ode import Bullets, Figure, Heading, Highlights, Paragraph, Report, Section, Table, Value, write_report
+from snapo_ode.cli import CommandLine, main, publish_report
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+HOSTILE = "</style><script>alert(1)</script><img src=x onerror=alert(2)>{{7*7}} \"q' &amp; \x1b[31mred\x1b[0m"
+RENDERED_TAGS = {"html", "head", "meta", "title", "style", "body", "h1", "h2", "h3", "p", "div", "strong", "ul",
+                 "li", "nav", "ol", "a", "section", "table", "caption", "thead", "tbody", "tr", "th", "td", "span",
+                 "figure", "img", "figcaption"}
+
+
+def error_of(argv, capsys, code=2, plugins=None) -> str:
+    assert main(argv, plugins=plugins) == code
+    err = capsys.readouterr().err
+    assert err.startswith("snapo: error: ") and err.count("\n") == 1, err
+    return err
+
+
+class Markup(HTMLParser):
+    """The tags, attributes and text of a page, as a browser's parser splits them."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.tags, self.attributes, self.text, self.style = [], [], [], []
+        self._in_style = False
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        self.attributes.extend(name for name, _ in attrs)
+        self._in_style = tag == "style"
+
+    def handle_endtag(self, tag):
+        self._in_style = False
+
+    def handle_data(self, data):
+        (self.style if self._in_style else self.text).append(data)
+
+
+def markup_of(page: str) -> Markup:
+    parsed = Markup()
+    parsed.feed(page)
+    parsed.close()
+    return parsed
+
+
+def assert_inert(page: str, hostile: str = HOSTILE) -> Markup:
+    """`page` holds only the renderer's own tags and attributes, one figure's image, one style
+    sheet without markup, and `hostile` as text."""
+    parsed = markup_of(page)
+    assert set(parsed.tags) <= RENDERED_TAGS and "script" not in parsed.tags, set(parsed.tags) - RENDERED_TAGS
+    assert not [name for name in parsed.attributes if name.startswith("on")]
+    assert parsed.tags.count("style") == 1 and "<" not in "".join(parsed.style)
+    assert hostile in "".join(parsed.text)
+    return parsed
+
+
+def hostile_report() -> Report:
+    """A report whose every text a user can name holds `HOSTILE`."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    data = {"name": HOSTILE, "number": 1.5, HOSTILE: HOSTILE, "rows": [{"unit": HOSTILE, "x": 2.5}]}
+    figure, axis = plt.subplots(figsize=(2, 1))
+    axis.plot([0, 1], [0, 1])
+    return Report(
+        name=HOSTILE, title=HOSTILE, data=data, provenance=snapo_ode.provenance({HOSTILE: data}),
+        subtitle=(HOSTILE, Value(("name",)), HOSTILE), warnings=(HOSTILE,),
+        sections=(Section(HOSTILE, (
+            Heading(HOSTILE), Paragraph((HOSTILE, Value(("number",), ".2f", HOSTILE)), "finding"),
+            Bullets(((HOSTILE, Value((HOSTILE,))),)),
+            Highlights(((HOSTILE, Value(("number",), ".1f", HOSTILE), (HOSTILE,)),)),
+            Table((HOSTILE, "x"), ((Value(("rows", 0, "unit")), Value(("rows", 0, "x"))), (HOSTILE, (HOSTILE,))),
+                  (HOSTILE,), csv="rows.csv"),
+            Figure.from_matplotlib(figure, (HOSTILE,), HOSTILE))),),
+        csv={"extra.csv": [[HOSTILE], [HOSTILE]]})
+
+
+def test_a_users_text_in_every_field_of_a_report_is_text(tmp_path):
+    out = tmp_path / "report"
+    write_report(out, hostile_report(), pdf="skip")
+    page = (out / "report.html").read_text()
+    parsed = assert_inert(page)
+    shown = "".join(parsed.text)
+    # title, heading, section, TOC, subtitle x2, value, paragraph, unit x2, bullet, card, table x4, caption x2, warning
+    assert shown.count(HOSTILE) >= 15
+    assert json.loads((out / "report.json").read_text())["name"] == HOSTILE  # the JSON keeps the text as given
+    css = "".join(parsed.style)
+    assert "\\00003c" in css and "\\000022" in css  # the title in the page header: escaped in its CSS string
+
+
+@pytest.mark.chromium
+@pytest.mark.skipif(snapo_ode.find_chromium() is None, reason="no headless Chromium (Debian package chromium)")
+def test_the_pdf_shows_a_users_text_as_text(tmp_path):
+    import pypdf
+
+    out = tmp_path / "report"
+    write_report(out, hostile_report(), pdf="require")
+    text = " ".join(page.extract_text() for page in pypdf.PdfReader(out / "report.pdf").pages)
+    assert "</script>" in text and "onerror" in text  # printed as text, not run as script
