@@ -48,7 +48,7 @@ import sys
 from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
 
-from ._runtime.exits import EXIT_INPUT_ERROR, configure_or_warn, ended
+from ._runtime.exits import EXIT_INPUT_ERROR, EXIT_SIGINT, configure_or_warn, ended
 from ._runtime.first_result import add_first_result_bench
 from ._runtime.options import OneLineParser, VersionAction, count, number, positive
 from ._runtime.terminal import safe_streams
@@ -321,17 +321,21 @@ def parse(cli: CommandLine, argv: Sequence[str] | None = None) -> argparse.Names
 
 
 def main(argv: Sequence[str] | None = None, plugins: Sequence[Callable[[CommandLine], None]] | None = None) -> int:
-    """Entry point of the `snapo` console script."""
+    """Entry point of the `snapo` console script. Without `argv`, the command is the program: an
+    interrupted run leaves the process at once when its line is printed (`ended`'s `leave`)."""
     with safe_streams():
         return _main(argv, plugins)
 
 
 def _main(argv: Sequence[str] | None, plugins: Sequence[Callable[[CommandLine], None]] | None) -> int:
-    cli = build(plugins)
     try:
+        cli = build(plugins)
         args = parse(cli, argv)
     except SystemExit as exited:  # --help, --version, or a one-line usage error (exit 2)
         return exited.code if isinstance(exited.code, int) else EXIT_INPUT_ERROR
+    except KeyboardInterrupt:  # Ctrl-C while the plugins load
+        print("snapo: interrupted by SIGINT; no result was written", file=sys.stderr)
+        return EXIT_SIGINT
     handler = getattr(args, "handler", None)
     if handler is None:
         cli.parser.print_help()
@@ -354,7 +358,7 @@ def _main(argv: Sequence[str] | None, plugins: Sequence[Callable[[CommandLine], 
         with reading_files(input_files(args)):
             return int(handler(args) or 0)
 
-    return ended(run, debug=args.debug, checkpoint=getattr(args, "checkpoint", None))
+    return ended(run, debug=args.debug, checkpoint=getattr(args, "checkpoint", None), leave=argv is None)
 
 
 if __name__ == "__main__":

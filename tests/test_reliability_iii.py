@@ -8,6 +8,7 @@ import json
 import os
 import pathlib
 import re
+import signal
 import subprocess
 import sys
 from html.parser import HTMLParser
@@ -116,3 +117,67 @@ def test_the_pdf_shows_a_users_text_as_text(tmp_path):
     write_report(out, hostile_report(), pdf="require")
     text = " ".join(page.extract_text() for page in pypdf.PdfReader(out / "report.pdf").pages)
     assert "</script>" in text and "onerror" in text  # printed as text, not run as script
+
+
+# A command that stands in for a run: a gc callback sends SIGTERM while the collector runs it (as
+# one lands while JAX's callback frees XLA buffers), then the "run" works on; `sys.argv[1]` says
+# what happens after the first signal.
+SIGNAL_SCRIPT = """
+import gc, os, signal, sys, time
+from snapo_ode._runtime.exits import ended
+
+def during_gc(phase, info):
+    if phase == "start" and not sent:
+        sent.append(1)
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)  # the handler runs here, inside the callback
+
+sent = []
+
+def run():
+    if sys.argv[1] == "gc":
+        gc.callbacks.append(during_gc)
+        gc.collect()
+        gc.callbacks.remove(during_gc)
+        for _ in range(200):  # the work goes on: the signal must stop it
+            time.sleep(0.01)
+        print("finished")
+        return 0
+    try:  # "twice": a second Ctrl-C during the first one's cleanup
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)
+    finally:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.1)
+        open(sys.argv[2], "w").write("checkpoint")  # the cleanup finishes
+    return 0
+
+sys.exit(ended(run, checkpoint=sys.argv[2], leave=True))
+"""
+
+
+def _run_signal_script(tmp_path, case):
+    checkpoint = tmp_path / "run.checkpoint.eqx"
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # not inherited as ignored
+    try:
+        done = subprocess.run([sys.executable, "-c", SIGNAL_SCRIPT, case, str(checkpoint)], capture_output=True,
+                              text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    return done, checkpoint
+
+
+def test_sigterm_landing_in_a_gc_callback_still_ends_the_run(tmp_path):
+    done, _ = _run_signal_script(tmp_path, "gc")
+    assert done.returncode == 143, done.stderr
+    assert "finished" not in done.stdout and "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+    assert done.stderr.strip().splitlines() == ["snapo: interrupted by SIGTERM; no result was written"]
+
+
+def test_a_second_ctrl_c_during_the_cleanup_ends_quietly_with_the_checkpoint(tmp_path):
+    done, checkpoint = _run_signal_script(tmp_path, "twice")
+    assert done.returncode == 130, done.stderr
+    assert checkpoint.read_text() == "checkpoint"
+    assert done.stderr.strip().splitlines() == [
+        f"snapo: interrupted by SIGINT; the training so far is in {str(checkpoint)!r}: run the same command with "
+        "--resume to go on"]
