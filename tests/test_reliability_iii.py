@@ -4,6 +4,7 @@ report's HTML and PDF, never markup; an output never replaces what the run did n
 path that cannot hold a result is refused before any work; the terminal gets escaped text in any
 locale; a signal ends a run with its exit code at any phase."""
 
+import io
 import json
 import os
 import pathlib
@@ -13,6 +14,9 @@ import subprocess
 import sys
 from html.parser import HTMLParser
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -181,3 +185,128 @@ def test_a_second_ctrl_c_during_the_cleanup_ends_quietly_with_the_checkpoint(tmp
     assert done.stderr.strip().splitlines() == [
         f"snapo: interrupted by SIGINT; the training so far is in {str(checkpoint)!r}: run the same command with "
         "--resume to go on"]
+
+
+def quadratic(params):
+    return jnp.sum((params["x"] - 1.0) ** 2), {}
+
+
+def test_a_checkpoint_whose_bytes_changed_is_refused_as_corrupt(tmp_path):
+    path = tmp_path / "run.ckpt"
+    snapo_ode.train(quadratic, {"x": jnp.zeros(3)}, steps=4, progress=False, checkpoint_path=path)
+    header, payload = path.read_bytes().split(b"\n", 1)
+    like = {"x": np.zeros(3)}
+    buffer = io.BytesIO(payload)
+    best = eqx.tree_deserialise_leaves(buffer, like)
+    # Every parameter scaled by 1.01, the file otherwise as written: a plausible checkpoint, not this one.
+    scaled = io.BytesIO()
+    eqx.tree_serialise_leaves(scaled, jax.tree.map(lambda leaf: leaf * 1.01, best))
+    path.write_bytes(header + b"\n" + scaled.getvalue() + buffer.read())
+    with pytest.raises(snapo_ode.InputError, match=r"run.ckpt' is corrupt: its checksum .* does not match"):
+        snapo_ode.train(quadratic, {"x": jnp.zeros(3)}, steps=4, progress=False, checkpoint_path=path, resume=True)
+    path.write_bytes(json.dumps({k: v for k, v in json.loads(header).items() if k != "checksum"}).encode() + b"\n"
+                     + payload)
+    with pytest.raises(snapo_ode.InputError, match="has no checksum"):
+        snapo_ode.load_checkpoint(path, like)
+
+
+def test_a_checkpoint_resumes_only_on_the_input_files_it_was_trained_on(tmp_path):
+    from snapo_ode._fingerprint import reading_files
+
+    scenarios = tmp_path / "scenarios.csv"
+    scenarios.write_text("scenario,time,value\n0,0,1.0\n")
+    path = tmp_path / "run.ckpt"
+    settings = dict(steps=3, progress=False, checkpoint_path=path)
+    with reading_files({"--scenarios": scenarios}):
+        snapo_ode.train(quadratic, {"x": jnp.zeros(2)}, **settings)
+        assert snapo_ode.train(quadratic, {"x": jnp.zeros(2)}, resume=True, **settings).steps_run == 3
+    scenarios.write_text("scenario,time,value\n0,0,1.01\n")  # what the run makes of it need not show the change
+    with reading_files({"--scenarios": scenarios}), pytest.raises(snapo_ode.InputError,
+                                                                  match="its file --scenarios differ"):
+        snapo_ode.train(quadratic, {"x": jnp.zeros(2)}, resume=True, **settings)
+    with pytest.raises(snapo_ode.InputError, match="its file --scenarios differ"):  # and without the file
+        snapo_ode.train(quadratic, {"x": jnp.zeros(2)}, resume=True, **settings)
+
+
+def counting_report(calls: list):
+    def register(cli: CommandLine):
+        cli.report("toy", "a toy report").set_defaults(handler=lambda args: calls.append(args) or publish_report(
+            args, Report(name="toy", title="Toy", data={"v": 1.0}, provenance=snapo_ode.provenance({}),
+                         sections=(Section("S", (Paragraph((Value(("v",)),)),)),))))
+    return register
+
+
+def test_a_report_never_replaces_a_directory_holding_what_it_did_not_write(tmp_path, capsys):
+    calls = []
+    toy = counting_report(calls)
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "MANIFEST.json").write_text('{"files": {}}')  # another tool's manifest
+    (out / "notes.txt").write_text("mine")
+    err = error_of(["report", "toy", "--no-pdf", "--out", str(out)], capsys, plugins=[toy])
+    assert "holds 'notes.txt', which its MANIFEST.json does not list" in err and calls == []
+    (out / "notes.txt").unlink()
+    (out / "MANIFEST.json").write_text('{"written_by": "someone else", "files": {}}')
+    assert "holds a MANIFEST.json that this package did not write" in error_of(
+        ["report", "toy", "--no-pdf", "--out", str(out)], capsys, plugins=[toy])
+    (out / "MANIFEST.json").unlink()
+    assert main(["report", "toy", "--no-pdf", "--out", str(out)], plugins=[toy]) == 0  # empty: written
+    assert main(["report", "toy", "--no-pdf", "--out", str(out)], plugins=[toy]) == 0  # its own: replaced
+    (out / "notes.txt").write_text("mine")
+    assert "holds 'notes.txt'" in error_of(["report", "toy", "--no-pdf", "--out", str(out)], capsys, plugins=[toy])
+    assert (out / "notes.txt").read_text() == "mine"
+    (out / "notes.txt").unlink()
+    (out / "report.html").write_text("edited")
+    assert "holds 'report.html', changed since the report was written" in error_of(
+        ["report", "toy", "--no-pdf", "--out", str(out)], capsys, plugins=[toy])
+    assert (out / "report.html").read_text() == "edited" and len(calls) == 2
+
+
+def test_an_output_that_is_not_a_regular_file_is_refused_before_any_work(tmp_path, capsys):
+    calls = []
+    toy = counting_report(calls)
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    for flag, path, kind in (("--json", "/dev/null", "a character device"), ("--json", fifo, "a named pipe"),
+                             ("--json", tmp_path, "a directory"), ("--out", "/dev/null", "exists and is not a")):
+        err = error_of(["report", "toy", "--no-pdf", "--out", str(tmp_path / "r"), flag, str(path)], capsys,
+                       plugins=[toy])
+        assert f"{flag} = {str(path)!r}" in err and kind in err, err
+    assert "--checkpoint = '/dev/null' is a character device" in error_of(
+        ["gas", "--checkpoint", "/dev/null", "--out", str(tmp_path / "g")], capsys)
+    assert calls == [] and not (tmp_path / "r").exists()
+
+
+def test_escape_sequences_in_a_users_file_reach_the_terminal_escaped(tmp_path, capsys):
+    from finance import gas_storage as gs
+
+    facility = tmp_path / "facility.json"
+    facility.write_text(json.dumps({**gs.sample_facility(), "cap\x1b]0;owned\x07\x1b[2Jacity": 1}))
+    err = error_of(["gas", "--facility", str(facility), "--out", str(tmp_path / "g")], capsys)
+    assert "cap\\x1b]0;owned\\x07\\x1b[2Jacity" in err and "\x1b" not in err and "\x07" not in err
+
+
+LOCALE_SCRIPT = """
+import sys
+from snapo_ode import Paragraph, Report, Section, Value, provenance
+from snapo_ode.cli import main, publish_report
+
+def register(cli):
+    cli.report("toy", "a toy report").set_defaults(handler=lambda args: publish_report(args, Report(
+        name="toy", title="Toy \\u2192 \\u00e9t\\u00e9", data={"v": 1.0}, provenance=provenance({}),
+        sections=(Section("S", (Paragraph((Value(("v",)),)),)),))))
+
+sys.exit(main(["report", "toy", "--no-pdf", "--out", sys.argv[1]], plugins=[register]))
+"""
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "latin-1"])
+def test_any_locale_prints_the_written_paths_after_the_result(tmp_path, encoding):
+    out = tmp_path / "r\u00e9sultat \u2192 \u6f22"
+    environment = {**os.environ, "PYTHONIOENCODING": encoding, "LANG": "C", "LC_ALL": "C", "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", LOCALE_SCRIPT, str(out)], capture_output=True, env=environment,
+                          timeout=120)
+    assert done.returncode == 0 and done.stderr == b"", done.stderr
+    assert (out / "report.html").exists()
+    lines = done.stdout.decode(encoding).splitlines()
+    assert f"written: {out / 'report.html'}".encode(encoding, "backslashreplace").decode(encoding) in lines

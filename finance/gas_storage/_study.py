@@ -267,7 +267,7 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
     value_smooth = float(np.mean(smooth_run.value))
     stochastic = {}
     if settings.stochastic:
-        stochastic = dict(paths=settings.paths, train_paths=settings.train_paths, seed=settings.seed,
+        stochastic = dict(paths=settings.paths, train_paths=settings.train_paths,
                           value_hard_se=standard_error(hard_run.value), value_smooth_se=standard_error(smooth_run.value),
                           evaluation="out of sample: fresh paths, not those trained on",
                           schedule_note="schedule entries are means over the evaluation paths")
@@ -317,5 +317,6 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
         start="lattice" if targets is not None else "intrinsic", start_seconds=start_seconds,
         start_value_hard=start_value_hard, policy=policy, inputs=inputs, scene_effects=scene, evaluation_shocks=eval_shocks, hard=hard_run,
         intrinsic=intrinsic, bump=bump, bump_relative_step=snapo_ode.DEFAULT_RELATIVE_STEP if bump else None,
+        seed=settings.seed,  # the policy's initial parameters depend on it in either mode
         **stochastic,
     )
