@@ -90,6 +90,7 @@ def test_a_facility_worth_nothing_gives_a_json_not_a_crash(tmp_path):
     assert main(["gas", "--facility", str(facility), "--train-steps", "3", "--json", str(out), "--no-progress"]) == 0
     result = json.loads(out.read_text())
     assert result["intrinsic_lp"] == 0.0 and result["hard_to_lp_ratio"] is None
+    assert result["mode"] == "deterministic" and result["seed"] == 0  # the initial policy's seed, in every mode
     policy = tmp_path / "gas.policy.eqx"
     assert result["attachments"]["gas.policy.eqx"] == snapo_ode.sha256(policy.read_bytes())
 

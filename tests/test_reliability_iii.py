@@ -310,3 +310,24 @@ def test_any_locale_prints_the_written_paths_after_the_result(tmp_path, encoding
     assert (out / "report.html").exists()
     lines = done.stdout.decode(encoding).splitlines()
     assert f"written: {out / 'report.html'}".encode(encoding, "backslashreplace").decode(encoding) in lines
+
+
+def _scenario_csv(path, market, shift=0.0):
+    """Four annual scenarios of the built-in fund's variables, one rate moved by `shift`."""
+    names = ["zero_rate_1", "zero_rate_10", *(f"equity_{name}" for name in market.equity_names), "cpi"]
+    rows = [(s, year, name, {"zero_rate_1": 0.02 + 0.001 * year * s + (shift if (s, year) == (1, 1) else 0.0),
+                             "zero_rate_10": 0.03, "cpi": 1.02 ** year}.get(name, 1.1 ** year * (1 + 0.01 * s * year)))
+            for s in range(4) for year in range(2) for name in names]
+    path.write_text("scenario,time,variable,value\n" + "".join(f"{s},{t},{v},{x!r}\n" for s, t, v, x in rows))
+    return path
+
+
+def test_snapo_alm_resumes_only_on_the_scenario_file_it_trained_on(tmp_path, capsys):
+    from finance import alm
+
+    market = alm.load_fund(alm.sample_fund_path()).market
+    run = ["alm", "--horizon-months", "3", "--train-steps", "1", "--no-progress", "--out", str(tmp_path / "o")]
+    assert main([*run, "--scenarios", str(_scenario_csv(tmp_path / "a.csv", market))]) == 0
+    other = _scenario_csv(tmp_path / "b.csv", market, shift=1e-4)
+    err = error_of([*run, "--scenarios", str(other), "--resume"], capsys)
+    assert "is of another run: its file --scenarios differ" in err
