@@ -42,7 +42,6 @@ Heavy imports (JAX, the models) happen inside the handlers, so `snapo --help` st
 """
 
 import argparse
-import os
 import pathlib
 import sys
 from collections.abc import Callable, Sequence
@@ -58,53 +57,14 @@ __all__ = ["CommandLine", "OneLineParser", "add_common_options", "add_device_opt
            "build", "count", "main", "number", "parse", "positive", "publish_report"]
 PLUGIN_GROUP = "snapo_ode.plugins"
 DEFAULT_OUT = pathlib.Path("snapo-out")
-OUTPUT_FLAGS = ("out", "json", "checkpoint")  # with every `write_*`: the paths a command writes
 
 
 def check_output_paths(args: argparse.Namespace) -> None:
-    """Refuse, before any computation, outputs that could not be written: `--json` or
-    `--checkpoint` naming anything but a regular file or a new path (a directory, /dev/null, a
-    named pipe) or under an unwritable directory, `--out` naming anything but a directory; for a
-    report, an `--out` holding anything but a report written before and unchanged since (the
-    report replaces its directory whole)."""
-    from ._platform.files import check_replaceable_directory, check_writable_under, output_target
+    """Refuse, before any computation, outputs that could not be written (`check_outputs`)."""
+    from ._runtime.outputs import check_outputs
 
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(f"--out = {str(args.out)!r} exists and is not a directory; give a directory.")
-    for flag in ("json", "checkpoint"):
-        path = getattr(args, flag, None)
-        if path is not None:
-            output_target(path, f"--{flag}")
-            check_writable_under(path.resolve().parent, f"--{flag}")
-    check_writable_under(args.out.resolve(), "--out")
-    if getattr(args, "report_directory", False):
-        check_replaceable_directory(args.out, "--out")
-        check_pdf_printer(args)
-
-
-def input_files(args: argparse.Namespace) -> dict[str, pathlib.Path]:
-    """The input files of the command: each `pathlib.Path` value (or list of them) naming a
-    regular file, but the outputs (`OUTPUT_FLAGS`, `--write-*`); flag -> path."""
-    files = {}
-    for name, value in vars(args).items():
-        if name in OUTPUT_FLAGS or name.startswith("write_"):
-            continue
-        for i, path in enumerate(value if isinstance(value, list) else [value]):
-            if isinstance(path, pathlib.Path) and path.is_file() and os.access(path, os.R_OK):
-                files[f"--{name.replace('_', '-')}{f' #{i + 1}' if isinstance(value, list) else ''}"] = path
-    return files
-
-
-def check_pdf_printer(args: argparse.Namespace) -> None:
-    """Before computing a report: with `--require-pdf`, refuse when Chromium is missing; by
-    default, warn at once that the PDF will be left out."""
-    from ._runtime.pdf import find_chromium, missing_message
-
-    if args.pdf == "skip" or find_chromium() is not None:
-        return
-    if args.pdf == "require":
-        raise InputError(f"--require-pdf: {missing_message()}")
-    print(f"snapo: warning: report.pdf will not be written: {missing_message()}", file=sys.stderr)
+    check_outputs(args.out, {"--json": args.json, "--checkpoint": getattr(args, "checkpoint", None)},
+                  report=getattr(args, "report_directory", False), pdf=getattr(args, "pdf", "skip"))
 
 
 def publish_report(args: argparse.Namespace, report) -> int:
@@ -354,8 +314,9 @@ def _main(argv: Sequence[str] | None, plugins: Sequence[Callable[[CommandLine], 
             mesh = sample_mesh(args.devices)
             args.mesh = mesh if mesh.size > 1 else None
         from ._fingerprint import reading_files
+        from ._runtime.outputs import input_files
 
-        with reading_files(input_files(args)):
+        with reading_files(input_files(vars(args))):
             return int(handler(args) or 0)
 
     return ended(run, debug=args.debug, checkpoint=getattr(args, "checkpoint", None), leave=argv is None)
