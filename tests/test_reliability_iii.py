@@ -330,3 +330,82 @@ def test_snapo_alm_resumes_only_on_the_scenario_file_it_trained_on(tmp_path, cap
     other = _scenario_csv(tmp_path / "b.csv", market, shift=1e-4)
     err = error_of([*run, "--scenarios", str(other), "--resume"], capsys)
     assert "is of another run: its file --scenarios differ" in err
+
+
+def hostile_directory(tmp_path) -> pathlib.Path:
+    """A directory whose path holds `HOSTILE` (its slashes make it nested): a user's file put
+    there shows the text wherever its path is shown (the command line in the provenance)."""
+    directory = tmp_path / f"in{HOSTILE}"
+    directory.mkdir(parents=True)
+    assert HOSTILE in str(directory)
+    return directory
+
+
+def yaml_edited(path: pathlib.Path, edit) -> str:
+    """The YAML file at `path`, read, changed by `edit(data)`, written again as text."""
+    from ruamel.yaml import YAML
+
+    yaml = YAML(typ="safe", pure=True)
+    data = yaml.load(path.read_text())
+    edit(data)
+    text = io.StringIO()
+    yaml.dump(data, text)
+    return text.getvalue()
+
+
+def assert_report_inert(out: pathlib.Path) -> None:
+    assert_inert((out / "report.html").read_text())
+    if (out / "report.pdf").exists():
+        import pypdf
+
+        text = " ".join(page.extract_text() for page in pypdf.PdfReader(out / "report.pdf").pages)
+        assert "</script>" in text
+
+
+@pytest.mark.slow
+def test_pharma_report_shows_hostile_process_names_and_descriptions_as_text(tmp_path):
+    built_in = ROOT / "chemistry" / "pharma" / "processes" / "api_chain.yaml"
+
+    def hostile(process):
+        process["mechanism"]["file"] = str((built_in.parent / process["mechanism"]["file"]).resolve())
+        process["name"] = process["description"] = HOSTILE
+        for entry in process["cpps"] + process["cqas"]:
+            entry["description"] = HOSTILE
+
+    path = hostile_directory(tmp_path) / "process.yaml"
+    path.write_text(yaml_edited(built_in, hostile))
+    out = tmp_path / "report"
+    assert main(["report", "pharma", "--process", str(path), "--out", str(out), "--rtol", "1e-10", "--atol", "1e-12",
+                 "--points", "5", "--verify-points", "4", "--samples", "47", "--curvature-points", "2",
+                 "--surrogate-samples", "1024", "--repeats", "1", "--no-progress"]) == 0
+    assert_report_inert(out)
+
+
+@pytest.mark.slow
+def test_alm_report_shows_a_hostile_fund_name_and_path_as_text(tmp_path):
+    from finance import alm
+
+    built_in = pathlib.Path(alm.sample_fund_path())
+    directory = hostile_directory(tmp_path)
+    (directory / "fund.yaml").write_text(yaml_edited(built_in, lambda fund: fund.update(name=HOSTILE)))
+    liabilities = "alm_liabilities.csv"  # the built-in fund's, beside its file
+    (directory / liabilities).write_bytes((built_in.parent / liabilities).read_bytes())
+    out = tmp_path / "report"
+    assert main(["report", "alm", "--fund", str(directory / "fund.yaml"), "--out", str(out), "--paths", "64",
+                 "--horizon-months", "24", "--train-steps", "5", "--train-paths", "32", "--no-progress"]) == 0
+    assert_report_inert(out)
+
+
+@pytest.mark.slow
+def test_gas_report_shows_hostile_file_paths_as_text(tmp_path):
+    from finance import gas_storage as gs
+
+    directory = hostile_directory(tmp_path)
+    (directory / "facility.json").write_text(json.dumps(gs.sample_facility()))
+    curve = gs.sample_curve()
+    (directory / "curve.csv").write_text("day,price\n" + "".join(f"{day},{price!r}\n" for day, price in
+                                                                 enumerate(np.asarray(curve).tolist())))
+    out = tmp_path / "report"
+    assert main(["report", "gas", "--facility", str(directory / "facility.json"), "--curve",
+                 str(directory / "curve.csv"), "--out", str(out), "--train-steps", "30", "--no-progress"]) == 0
+    assert_report_inert(out)
