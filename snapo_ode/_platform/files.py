@@ -154,7 +154,8 @@ def check_replaceable_directory(out: str | os.PathLike, what: str = "--out") -> 
     Also refuses an existing file and a parent that cannot be written. Call it before computing."""
     out = pathlib.Path(out)
     if out.exists() and not out.is_dir():
-        raise InputError(f"{what} = {str(out)!r} exists and is not a directory; give a directory.")
+        kind = "is an existing file" if out.is_file() else "exists and is not a directory"
+        raise InputError(f"{what} = {str(out)!r} {kind}; give a directory.")
     if out.is_dir() and any(out.iterdir()):
         reason = _not_ours(out)
         if reason is not None:

@@ -21,7 +21,8 @@ def check_outputs(out: pathlib.Path, outputs: Mapping[str, pathlib.Path | None],
     from .._platform.files import check_replaceable_directory, check_writable_under, output_target
 
     if out.exists() and not out.is_dir():
-        raise InputError(f"--out = {str(out)!r} exists and is not a directory; give a directory.")
+        kind = "is an existing file" if out.is_file() else "exists and is not a directory"
+        raise InputError(f"--out = {str(out)!r} {kind}; give a directory.")
     for flag, path in outputs.items():
         if path is not None:
             output_target(path, flag)
