@@ -87,8 +87,8 @@ class _Signals:
     def __exit__(self, *exc):
         if self.resend is not None:
             self.resend.cancel()
-        for signum, handler in self.previous.items():
-            signal.signal(signum, handler)
+        for signum, handler in self.previous.items():  # None: a handler set outside Python
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
 
     def handle(self, signum, frame):
         if self.ending or self.count:  # the run is already ending: note it, let the cleanup finish
