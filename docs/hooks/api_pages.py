@@ -19,7 +19,7 @@ PACKAGES = {
     "finance.alm": "Pension-fund asset-liability management.",
     "chemistry": "Kinetics and reactors (`chemistry.kinetics`, re-exported by `chemistry`).",
     "chemistry.pharma": "The pharmaceutical chain and its ICH Q8 study.",
-    "control.pendulum": "Pendulum-v1 with a periodic state.",
+    "snapo_control.pendulum": "Pendulum-v1 with a periodic state.",
 }
 
 
