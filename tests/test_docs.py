@@ -84,3 +84,12 @@ def test_the_site_checks_find_what_they_are_for(tmp_path):
         "notebook/index.html: 1 output(s) written to stderr"]
     (tmp_path / "notebook" / "index.html").write_text('<img src="data:image/png;base64,AAAA">')
     assert check.notebook_problems(tmp_path, ["notebook/index.html"]) == []
+
+
+def test_the_api_pages_render_the_docstrings_lists_as_lists():
+    lists = _hook("docstring_lists")
+    docstring = ("Solve it.\n\n**Arguments:**\n- `fn`: the model,\n  over two lines.\n- `mode`: how:\n"
+                 "  - \"reverse\": one pass.\n\n```python\n- not a list\n```")
+    assert lists.as_markdown_lists(docstring) == (
+        "Solve it.\n\n**Arguments:**\n\n- `fn`: the model,\n  over two lines.\n- `mode`: how:\n"
+        "    - \"reverse\": one pass.\n\n```python\n- not a list\n```")
