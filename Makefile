@@ -33,7 +33,8 @@ test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m slow --durations=10
 
 # The package as a library: its wheel installed into a fresh environment with the newest releases
-# pyproject.toml's ranges allow, and run from outside the checkout (CI runs it after `make test`).
+# pyproject.toml's ranges allow, beside python-control (whose import name is `control`), and both
+# run from outside the checkout (CI runs it after `make test`).
 wheel-check:
 	bash .ci/wheel_smoke $(PYTHON)
 
@@ -45,11 +46,14 @@ bench: $(STAMP)
 accuracy: $(STAMP)
 	$(BIN)/snapo bench accuracy --out docs
 
-# The documentation site into site/ (mkdocs.yml): strict, any warning fails the build; the API
-# reference generated from the public names; the notebooks executed and rendered at their small
-# size (`make docs NOTEBOOKS=full` runs them at the size of the figures in the docs: long).
+# The documentation site into site/ (mkdocs.yml): the Markdown linted first (.pymarkdown.json),
+# then built strict, any warning failing it; the API reference generated from the public names;
+# the notebooks executed with their plots and rendered at their small size (`make docs
+# NOTEBOOKS=full` runs them at the size of the figures in the docs: long); then every link,
+# anchor and notebook page of the built site checked (docs/hooks/check_site.py).
 docs: $(DOCS_STAMP)
-	NO_MKDOCS_2_WARNING=1 MPLBACKEND=Agg SNAPO_NOTEBOOK_SMALL=$(if $(filter full,$(NOTEBOOKS)),0,1) \
+	$(BIN)/pymarkdown --config .pymarkdown.json scan --recurse README.md docs
+	NO_MKDOCS_2_WARNING=1 SNAPO_NOTEBOOK_SMALL=$(if $(filter full,$(NOTEBOOKS)),0,1) \
 		$(BIN)/mkdocs build --strict
 
 clean:

@@ -13,7 +13,7 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-PACKAGES = ("snapo_ode", "finance", "chemistry", "control")
+PACKAGES = ("snapo_ode", "finance", "chemistry", "snapo_control")
 MAX_LINES = 330
 
 
@@ -152,6 +152,6 @@ def test_modules_stay_small():
 
 def test_the_cli_and_the_packages_import_no_jax():
     script = ("import sys\nfrom snapo_ode.cli import build\nbuild()\n"
-              "import finance.gas_storage, chemistry.pharma, control.pendulum\n"
+              "import finance.gas_storage, chemistry.pharma, snapo_control.pendulum\n"
               "assert 'jax' not in sys.modules, sorted(m for m in sys.modules if 'jax' in m)[:5]")
     subprocess.run([sys.executable, "-c", script], cwd=ROOT, check=True)

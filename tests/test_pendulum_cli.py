@@ -6,8 +6,8 @@ import json
 import jax.numpy as jnp
 import numpy as np
 
-from control.cli import register
-from control.pendulum import features
+from snapo_control.cli import register
+from snapo_control.pendulum import features
 from snapo_ode import load_policy
 from snapo_ode.cli import main
 

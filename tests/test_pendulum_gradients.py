@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from control.pendulum import Pendulum, TrainingSettings, episode_costs, new_policy, torque
+from snapo_control.pendulum import Pendulum, TrainingSettings, episode_costs, new_policy, torque
 from snapo_ode import central_differences, flatten_inputs
 
 K = 10.0

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from control.pendulum import ENV_ID, PERIODIC, Pendulum, features, features_from_observation
+from snapo_control.pendulum import ENV_ID, PERIODIC, Pendulum, features, features_from_observation
 
 
 def _raw_env():

@@ -5,7 +5,7 @@ import jax
 import numpy as np
 import pytest
 
-from control.pendulum import Pendulum, TrainingSettings, gymnasium_returns, new_policy, train_policy
+from snapo_control.pendulum import Pendulum, TrainingSettings, gymnasium_returns, new_policy, train_policy
 from snapo_ode import InputError
 
 

@@ -8,7 +8,7 @@ import pytest
 from snapo_ode import InputError, Settings, SolverSettings
 
 from chemistry.pharma import DesignSpaceSettings
-from control.pendulum import TrainingSettings
+from snapo_control.pendulum import TrainingSettings
 from finance.alm import ALMConfig
 from finance.gas_storage import StudySettings
 

@@ -1,11 +1,14 @@
 """mkdocs hook: the home page is the README, and the API reference has one page per public
 package, generated from the packages' own lists of public names (`__all__`, `lazy_exports`), so a
-name added to the code appears in the reference without anyone editing a page. Each name is
-documented from the module that defines it (mkdocstrings); a name that a package re-exports from
+name added to the code appears in the reference without anyone editing a page. The names are
+grouped by task: one section per module that defines them (modules hold one idea each), titled by
+the module docstring's first phrase, the groups a user starts with first. Each name is documented
+from its module (mkdocstrings: signature and docstring); a name that a package re-exports from
 another public package links to that package's page."""
 
 import importlib
 import importlib.util
+import re
 from pathlib import Path
 
 
@@ -19,8 +22,29 @@ PACKAGES = {
     "finance.alm": "Pension-fund asset-liability management.",
     "chemistry": "Kinetics and reactors (`chemistry.kinetics`, re-exported by `chemistry`).",
     "chemistry.pharma": "The pharmaceutical chain and its ICH Q8 study.",
-    "control.pendulum": "Pendulum-v1 with a periodic state.",
+    "snapo_control.pendulum": "Pendulum-v1 with a periodic state.",
 }
+
+
+# The modules whose groups open a page, in this order; the others follow in the package's own order.
+FIRST = ("snapo_ode._platform.config", "snapo_ode._ode", "snapo_ode._solver.settings", "snapo_ode._sensitivity",
+         "snapo_ode._verification", "snapo_ode._training", "snapo_ode._policy", "snapo_ode._rollout",
+         "snapo_ode._effects", "snapo_ode._periodic", "snapo_ode._runtime.results", "snapo_ode._platform.validation")
+
+
+def title(module_name: str) -> str:
+    """A group's heading: the first phrase of the module's docstring (up to a colon or the end of
+    its first sentence), or the module's name."""
+    text = " ".join((importlib.import_module(module_name).__doc__ or "").split())
+    phrase = re.split(r"(?<=[^.])\. |: |\.$", text, maxsplit=1)[0].strip().rstrip(".")
+    if len(phrase) > 60:  # a long first phrase: its head, before a parenthesis, comma or semicolon
+        head = re.split(r" \(|, |; ", phrase, maxsplit=1)[0]
+        phrase = head if head.count("[") == head.count("]") else phrase
+    if len(phrase) > 70:
+        phrase = phrase[:70].rsplit(" ", 1)[0] + " ..."
+    if not phrase:
+        return module_name
+    return phrase[0].upper() + phrase[1:]
 
 
 def definitions(package: str) -> dict[str, str]:
@@ -40,22 +64,32 @@ def definitions(package: str) -> dict[str, str]:
 
 
 def page(package: str) -> str:
-    """The Markdown of `package`'s page: its docstring, then every public name."""
+    """The Markdown of `package`'s page: its docstring, then every public name, grouped by task."""
     module = importlib.import_module(package)
     if not hasattr(module, "__getattr__"):  # a plain module (`snapo_ode.smooth`): all of it
         return f"# `{package}`\n\n{PACKAGES[package]}\n\n::: {package}\n"
     lines = [f"# `{package}`", "", PACKAGES[package], "", f"::: {package}", "    options:", "      members: false", ""]
-    for name, home in sorted(definitions(package).items(), key=lambda item: item[0].lower()):
+    groups: dict[str, list[str]] = {}
+    for name, home in definitions(package).items():
         submodule = f"{package}.{name}"
         owner = max((other for other in PACKAGES if home == other or home.startswith(other + ".")), key=len,
                     default=package)
         if home == package and importlib.util.find_spec(submodule) is not None:
             link = f"[`{submodule}`]({submodule}.md)" if submodule in PACKAGES else f"`{submodule}`"
-            lines += [f"## `{name}`", "", f"The submodule {link}.", ""]
+            entry = f"### `{name}`\n\nThe submodule {link}.\n"
+            home = "submodules"
         elif owner != package:
-            lines += [f"## `{name}`", "", f"Re-exported from [`{owner}`]({owner}.md).", ""]
+            entry = f"### `{name}`\n\nRe-exported from [`{owner}`]({owner}.md).\n"
+            home = f"re-exported from {owner}"
         else:
-            lines += [f"::: {home}.{name}", ""]
+            entry = f"::: {home}.{name}\n    options:\n      heading_level: 3\n"
+        groups.setdefault(home, []).append(entry)
+    order = sorted(groups, key=lambda home: (FIRST.index(home) if home in FIRST else len(FIRST),
+                                             home.startswith(("submodules", "re-exported"))))
+    for home in order:
+        heading = ("Submodules" if home == "submodules" else home.capitalize() if home.startswith("re-exported")
+                   else title(home))
+        lines += [f"## {heading}", ""] + groups[home]
     return "\n".join(lines)
 
 

@@ -1,4 +1,4 @@
-"""CLI verbs of the `control` domain, registered through the `snapo_ode.plugins` entry point."""
+"""CLI verbs of the control domain (`snapo_control`), registered through the `snapo_ode.plugins` entry point."""
 
 from snapo_ode.cli import CommandLine
 

@@ -1,3 +1,0 @@
-"""Control on snapo_ode: classic control problems with published baselines, trained by
-backpropagation through their rollouts. `control.pendulum`: Gymnasium's Pendulum-v1, whose angle
-is a periodic state component (`snapo_ode.Periodic`). See docs/pendulum.md."""
