@@ -72,7 +72,9 @@ class ALMStudy(Result):
     over liabilities at the start, valued as the simulation values them; `scenarios`: "generated"
     or the scenario file the study ran on; `board`: the board's figures (`_board.board_figures`:
     `funding_ratio_percentiles`, `p_underfunded`, `surplus_at_risk`, `hedge_ratio`,
-    `key_rate_durations`), top-level keys of the JSON."""
+    `key_rate_durations`), top-level keys of the JSON; `baselines`: each fixed mix's evaluation
+    and its `board` figures, the fund's strategic mix first where its file names one
+    (`strategic_mix`: its weights, null where it names none)."""
 
     n_risk_factors: int
     layout: dict
@@ -91,6 +93,7 @@ class ALMStudy(Result):
     initial_funding_ratio: float | None = None
     scenarios: str = "generated"
     board: dict = field(json=False, default_factory=dict)
+    strategic_mix: dict | None = None
 
     def to_json(self) -> dict:
         payload = {**super().to_json(), **self.evaluation.to_json(), **self.measurement.to_json(), **self.board}
