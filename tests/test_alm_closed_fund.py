@@ -39,10 +39,12 @@ def test_alm_report_and_bench_run_the_closed_fund(tmp_path):
     assert payload["fund"] == "closed example fund" and payload["paths"] == 2_000
     assert payload["initial_funding_ratio"] == pytest.approx(1.05, rel=1e-12)
     assert payload["p_underfunded"]["months"] == [12]  # the file's board months within the horizon
+    assert list(payload["baselines"])[0] == "strategic_mix" and payload["strategic_mix"]["strips_25y"] == 0.3
     assert main(["report", "alm", *common, "--train-steps", "2", "--train-paths", "16", "--no-bump", "--no-pdf",
                  "--out", str(tmp_path / "report")], plugins=[register_alm]) == 0
     report = json.loads((tmp_path / "report" / "report.json").read_text())
     assert report["asset_classes"][-1] == "global_equity" and report["paths"] == 1_000  # half trains
+    assert report["policy_names"][1] == "strategic_mix" and "board" in report["baselines"]["strategic_mix"]
     assert main(["bench", "alm", *common, "--repeats", "1", "--out", str(tmp_path / "bench")],
                 plugins=[register_alm]) == 0
     rows = list(csv.DictReader((tmp_path / "bench" / "bench_alm.csv").open()))

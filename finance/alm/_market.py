@@ -89,8 +89,7 @@ def interpolation_segments(maturities, tenors) -> tuple[np.ndarray, np.ndarray, 
 
 
 def interpolation_weights(maturities, tenors) -> np.ndarray:
-    """Weights of linear interpolation in maturity on the key tenors, flat beyond both ends
-    (`interpolation_segments`).
+    """Weights of linear interpolation in maturity on the key tenors, flat beyond both ends.
 
     **Arguments:** `maturities` [years], shape (m,); `tenors` [years], shape (k,), increasing.
 

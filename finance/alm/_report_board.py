@@ -50,7 +50,7 @@ def board_section(data: dict) -> Section:
                "surplus DV01 [million per bp]"), durations, ("Key-rate durations (forward-mode AD at the start)",)),
         Paragraph(("Durations add up over the tenors to the parallel duration; the hedge ratio is the assets' parallel "
                    "DV01 over the liabilities'. A DV01 is the value gained when every rate falls by one basis point "
-                   "(-dV/dr x 1 bp): positive for a long bond position, and the liabilities' is positive too.",),
+                   "(-dV/dr times a basis point): positive for a long bond position, and the liabilities' is positive too.",),
                   "note"),
         *comparison_blocks(data)))
 
