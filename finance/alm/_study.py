@@ -37,8 +37,8 @@ from ._fund_file import Fund, fund_holdings
 from ._memory import check_size
 from ._scenario_file import ScenarioSet
 from ._scenarios import batch_drawer, on_devices, scenario_start, split_for_training
-from ._model import EFFECTS, ALMConfig, ALMProblem, indexed_share, initial_funding_ratio, simulate
-from ._baselines import baselines
+from ._model import EFFECTS, ALMConfig, ALMProblem, indexed_share, initial_funding_ratio, initial_values, simulate
+from ._baselines import baselines, liability_duration
 from ._policy import AbstractRebalancing, NeuralRebalancing
 
 
@@ -308,4 +308,6 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
         measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks,
         fund=None if fund is None else fund.name, scenarios="generated" if scenario_set is None else scenario_set.source,
         initial_funding_ratio=initial_funding_ratio(study.problem, {**study.fixed, **study.reported}),
+        initial_liability_value=float(initial_values(study.problem, {**study.fixed, **study.reported})[1]),
+        liability_duration=liability_duration(study),
         board=board_figures(study, policy, shocks, board))
