@@ -101,3 +101,23 @@ def test_liability_matching_hedges_the_duration_as_valued(study):
     weights = np.asarray(alm.baselines(study)["liability_matching"].weights)
     short, long = 5.0, 30.0
     assert (weights[1] * short + weights[2] * long) / (weights[1] + weights[2]) == pytest.approx(duration, rel=1e-12)
+
+
+def test_the_cash_flow_mapping_kept_for_comparison_overvalues_by_convexity(study):
+    """`key_rate_profile` splits each flow onto its two key tenors keeping its amount and, inside
+    the tenors, its mean maturity; discounted there (`liability_value`) it is worth at least the
+    flow at its own date on a flat curve (exp(-r tau) is convex in tau), more where it spans more."""
+    factors = {k: np.asarray(v) for k, v in {**study.fixed, **study.reported}.items()}
+    tenors = study.market.tenors
+    profile = np.asarray(alm.key_rate_profile(factors["liability_cash_flows"], study.market, 0)[0])
+    flows = np.asarray(study.problem.schedule.monthly(factors["liability_cash_flows"]))
+    tau = np.clip(alm.cash_flow_maturities(flows.size), tenors[0], tenors[-1])
+    assert profile.sum() == pytest.approx(flows.sum(), rel=1e-13)
+    assert profile @ tenors == pytest.approx(flows @ tau, rel=1e-13)
+    outstanding = alm.outstanding_cash_flows(factors["liability_cash_flows"], 0)[0]
+    rates = jnp.full((1, tenors.size), 0.03)
+    mapped = float(alm.liability_value(jnp.asarray(profile), rates, tenors)[0])
+    at_dates = float(alm.liability_value_at_dates(outstanding, rates, tenors)[0])
+    assert mapped == pytest.approx(profile @ np.exp(-0.03 * tenors), rel=1e-13)
+    assert mapped > at_dates == pytest.approx(np.sum(flows * np.exp(-0.03 * alm.cash_flow_maturities(flows.size))),
+                                              rel=1e-13)
