@@ -23,26 +23,45 @@ def robertson_reference(rates, t1: float, *, rtol: float = 1e-12, atol: float = 
     return solved.y[:, -1]
 
 
+def alm_liability_value(study, key_rates=None, *, month: int = 0, cpi: float = 1.0, inflation=None) -> float:
+    """The liability value [million] of an ALM study after `month`, written from docs/alm.md in
+    NumPy with a loop over the cash flows: each outstanding monthly benefit discounted at its own
+    date tau = (m - month) / 12 at the zero rate interpolated linearly in maturity between the two
+    key tenors around tau (flat beyond the ends); the indexed share (when the indexation effect
+    is on) worth `cpi` exp(inflation tau) per unit (default inflation: the study's initial)."""
+    factors = {k: np.asarray(v, float) for k, v in {**study.fixed, **study.reported}.items()}
+    tenors = study.market.tenors
+    rates = factors["key_rates"] if key_rates is None else np.asarray(key_rates, float)
+    inflation = factors["inflation"] if inflation is None else inflation
+    config = study.problem.config
+    f = config.indexation if study.problem.scene.has("inflation_indexation") else 0.0
+    monthly = np.asarray(study.problem.schedule.monthly(factors["liability_cash_flows"]))
+    total = 0.0
+    for m, flow in enumerate(monthly, start=1):
+        if m <= month:
+            continue
+        tau = (m - month) / 12.0
+        clipped = min(max(tau, tenors[0]), tenors[-1])
+        if tenors.size == 1:
+            rate = rates[0]
+        else:
+            right = min(max(np.searchsorted(tenors, clipped, side="right"), 1), tenors.size - 1)
+            share = (clipped - tenors[right - 1]) / (tenors[right] - tenors[right - 1])
+            rate = (1 - share) * rates[right - 1] + share * rates[right]
+        total += flow * np.exp(-rate * tau) * (1 - f + f * cpi * np.exp(inflation * tau))
+    return float(total)
+
+
 def alm_balance_sheet(study, key_rates=None) -> tuple[float, float]:
     """(assets, liabilities) [million] of an ALM study at the start, written from docs/alm.md in
-    NumPy (on `key_rates` instead of the study's, when given): each monthly benefit mapped
-    linearly onto its two key tenors, discounted at the key rates, the indexed share grown at the
-    initial inflation; each bond class at exp(-y tau) with y interpolated (plus the spread for
+    NumPy (on `key_rates` instead of the study's, when given): the liabilities by
+    `alm_liability_value`; each bond class at exp(-y tau) with y interpolated (plus the spread for
     credit), inflation-linked ones at the real yield; cash at 1; equities at their levels."""
     factors = {k: np.asarray(v, float) for k, v in {**study.fixed, **study.reported}.items()}
-    market, config = study.market, study.problem.config
+    market = study.market
     tenors = market.tenors
     rates = factors["key_rates"] if key_rates is None else np.asarray(key_rates, float)
-    monthly = np.asarray(study.problem.schedule.monthly(factors["liability_cash_flows"]))
-    maturities = np.arange(1, monthly.size + 1) / 12.0
-    profile = np.zeros(tenors.size)
-    for flow, tau in zip(monthly, np.clip(maturities, tenors[0], tenors[-1])):
-        right = min(max(np.searchsorted(tenors, tau, side="right"), 1), tenors.size - 1)
-        share = (tau - tenors[right - 1]) / (tenors[right] - tenors[right - 1])
-        profile[right - 1] += flow * (1 - share)
-        profile[right] += flow * share
-    f = config.indexation if study.problem.scene.has("inflation_indexation") else 0.0
-    liability = np.sum(profile * np.exp(-rates * tenors) * (1 - f + f * np.exp(factors["inflation"] * tenors)))
+    liability = alm_liability_value(study, rates)
 
     def y(tau):
         return np.interp(tau, tenors, rates)

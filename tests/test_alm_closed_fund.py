@@ -11,7 +11,7 @@ import pytest
 
 from finance import alm
 from finance.alm._cli import register_alm
-from references import alm_funding_ratio
+from references import alm_funding_ratio, alm_liability_value
 from snapo_ode.cli import main
 
 FOLDER = files("finance") / "data" / "closed_fund"
@@ -39,10 +39,16 @@ def test_alm_report_and_bench_run_the_closed_fund(tmp_path):
     assert payload["fund"] == "closed example fund" and payload["paths"] == 2_000
     assert payload["initial_funding_ratio"] == pytest.approx(1.05, rel=1e-12)
     assert payload["p_underfunded"]["months"] == [12]  # the file's board months within the horizon
+    assert list(payload["baselines"])[0] == "strategic_mix" and payload["strategic_mix"]["strips_25y"] == 0.3
+    study = alm.build_fund_study(alm.load_fund(FUND), horizon_months=12,
+                                 scenario_set=alm.load_scenarios(SCENARIOS, alm.load_fund(FUND).market, 12, spread=0.01))
+    assert payload["initial_liability_value"] == pytest.approx(alm_liability_value(study), rel=1e-12)
+    assert payload["liability_duration"] == pytest.approx(sum(payload["key_rate_durations"]["liabilities"]), rel=1e-12)
     assert main(["report", "alm", *common, "--train-steps", "2", "--train-paths", "16", "--no-bump", "--no-pdf",
                  "--out", str(tmp_path / "report")], plugins=[register_alm]) == 0
     report = json.loads((tmp_path / "report" / "report.json").read_text())
     assert report["asset_classes"][-1] == "global_equity" and report["paths"] == 1_000  # half trains
+    assert report["policy_names"][1] == "strategic_mix" and "board" in report["baselines"]["strategic_mix"]
     assert main(["bench", "alm", *common, "--repeats", "1", "--out", str(tmp_path / "bench")],
                 plugins=[register_alm]) == 0
     rows = list(csv.DictReader((tmp_path / "bench" / "bench_alm.csv").open()))

@@ -126,10 +126,15 @@ def test_bad_files_name_the_file_line_field_and_value(tmp_path, liabilities, cha
     assert message in str(raised.value), str(raised.value)
 
 
+STRATEGIC = "{cash: 0.1, bond_short: 0.2, bond_long: 0.35, inflation_linked: 0.05, credit: 0.05, equity: 0.25}"
+MIX = "  mix: {cash: 0.05, bond_short: 0.15, bond_long: 0.3, inflation_linked: 0.1, credit: 0.1, equity: 0.3}"
+
+
 def test_snapo_alm_runs_a_fund_file_and_refuses_a_count_beside_it(tmp_path, capsys):
     out = tmp_path / "fund.json"
     path = _fund(tmp_path, "cohort,year,cash_flow\na,1,24\nb,2,30\n", cash_flow_unit="  cash_flow_unit: million / year",
-                 floor_sharpness="  floor_sharpness: 50.0\nboard: {required_funding_ratio: 1.3, months: [2, 3]}")
+                 floor_sharpness="  floor_sharpness: 50.0\nboard: {required_funding_ratio: 1.3, months: [2, 3]}",
+                 mix=f"{MIX}\n  strategic_mix: {STRATEGIC}")
     argv = ["alm", "--fund", str(path), "--paths", "8", "--horizon-months", "3", "--no-progress"]
     assert main([*argv, "--json", str(out)], plugins=[register_alm]) == 0
     payload = json.loads(out.read_text())
@@ -137,6 +142,18 @@ def test_snapo_alm_runs_a_fund_file_and_refuses_a_count_beside_it(tmp_path, caps
     assert "liability_cash_flow_month_13_cohort_b" in payload["sensitivities"]
     assert payload["p_underfunded"]["months"] == [2, 3] and payload["p_underfunded"]["required_funding_ratio"] == 1.3
     assert {"funding_ratio_percentiles", "surplus_at_risk", "hedge_ratio", "key_rate_durations"} <= set(payload)
+    # The fund's strategic mix: the first baseline, with the policy's board figures.
+    assert list(payload["baselines"]) == ["strategic_mix", "sixty_forty", "liability_matching"]
+    strategic = payload["baselines"]["strategic_mix"]
+    assert strategic["weights"] == payload["strategic_mix"] == dict(
+        cash=0.1, bond_short=0.2, bond_long=0.35, inflation_linked=0.05, credit=0.05, equity=0.25)
+    for baseline in payload["baselines"].values():
+        assert set(baseline["board"]) == {key for key in payload if key in baseline["board"]} == {
+            "funding_ratio_percentiles", "p_underfunded", "surplus_at_risk", "hedge_ratio", "key_rate_durations"}
+        # The fan chart's last month (a trajectory run) agrees with the evaluation (a run without one).
+        assert baseline["board"]["p_underfunded"]["below_1"][-1] == baseline["funding_ratio"]["probability_below_1"]
+        assert baseline["board"]["funding_ratio_percentiles"]["p50"][-1] == pytest.approx(baseline["funding_ratio"]["p50"],
+                                                                                           rel=1e-12)
     assert main([*argv, "--risk-factors", "40"], plugins=[register_alm]) == 2
     assert "give one of the two" in capsys.readouterr().err
 
@@ -195,6 +212,12 @@ def test_asset_classes_by_duration_and_their_errors(tmp_path):
     ({"volatility": "      volatility: 3"}, "line 24: market.equity_vols"),
     ({"mix": "  mix: {cash: 0.05, bond_short: 0.15, bond_long: 0.3, inflation_linked: 0.1, credit: 0.1, equity: 0.2}"},
      "line 41: assets.mix = "),
+    ({"mix": MIX + "\n  strategic_mix: {cash: 0.05, bond_short: 0.15, bond_long: 0.3, inflation_linked: 0.1, credit: 0.1, "
+                   "equity: 0.2}"}, "line 42: assets.strategic_mix = {'cash': 0.05"),
+    ({"mix": MIX + "\n  strategic_mix: {cash: -0.1, bond_short: 0.25, bond_long: 0.35, inflation_linked: 0.1, credit: 0.1, "
+                   "equity: 0.3}"}, "(sum 1); allowed: a weight in [0, 1] per asset class, summing to 1"),
+    ({"mix": MIX + "\n  strategic_mix: {cash: 0.5, equity: 0.5}"}, "line 42: assets.strategic_mix has no ['bond_short'"),
+    ({"mix": MIX + "\n  strategic_mix: {cash: 0.5, equity: abc}"}, "assets.strategic_mix.equity = 'abc'"),
 ])
 def test_errors_found_after_the_schema_name_the_line(tmp_path, change, message):
     path = _fund(tmp_path, "month,cash_flow\n1,2\n", **change)

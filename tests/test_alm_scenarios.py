@@ -128,9 +128,20 @@ def test_a_set_too_short_or_starting_apart_is_refused(tmp_path, fund):
     with pytest.raises(InputError, match="the scenarios end at 1 years; the study's horizon is 24 months"):
         load_scenarios(path, fund.market, 24, spread=0.01)
     rows = [(s, t, v, x + 0.01 if (s, t, v) == ("b", 0, "zero_rate_10") else x) for s, t, v, x in _annual_rows(fund)]
-    loaded = load_scenarios(_long_csv(tmp_path / "apart.csv", rows), fund.market, 12, spread=0.01)
-    with pytest.raises(InputError, match="differs between scenarios at time 0"):
-        alm.build_fund_study(fund, horizon_months=12, scenario_set=loaded)
+    # The file's variable, not the fund's key tenor it is interpolated onto.
+    with pytest.raises(InputError, match="zero_rate_10 differs between scenarios at the first time: 0.03 in scenario "
+                                         "'a', 0.04 in scenario 'b'"):
+        load_scenarios(_long_csv(tmp_path / "apart.csv", rows), fund.market, 12, spread=0.01)
+
+
+@pytest.mark.parametrize("cell, message", [
+    ("nan", "line 6: value = 'nan'; allowed: a finite number"), ("inf", "line 6: value = 'inf'"),
+    ("0.7", "scenario 'a', time 1: zero_rate_1 = 0.7; allowed: (-0.5, 0.5)")])
+def test_bad_cells_are_named_by_their_text_and_the_files_variable(tmp_path, fund, cell, message):
+    rows = [r if r != ("a", 1, "zero_rate_1", 0.02) else ("a", 1, "zero_rate_1", cell) for r in _annual_rows(fund)]
+    with pytest.raises(InputError) as raised:
+        load_scenarios(_long_csv(tmp_path / "bad.csv", rows), fund.market, 12, spread=0.01)
+    assert message in str(raised.value) and "np.float64" not in str(raised.value), str(raised.value)
 
 
 def test_snapo_alm_writes_and_reads_a_scenario_set(tmp_path, capsys):
@@ -170,3 +181,19 @@ def test_a_tenor_given_twice_and_blank_lines(tmp_path, fund):
     path.write_text("".join(text))
     with pytest.raises(InputError, match=r"line 4: value = 'x'"):
         load_scenarios(path, fund.market, 12, spread=0.01)
+
+
+def test_a_parquet_or_npz_nan_is_named_by_scenario_time_and_variable(tmp_path, fund):
+    import pandas as pd
+
+    rows = [r if r != ("b", 2, "cpi", 1.02 ** 2) else ("b", 2, "cpi", float("nan")) for r in _annual_rows(fund)]
+    table = pd.DataFrame(rows, columns=["scenario", "time", "variable", "value"])
+    table.to_parquet(tmp_path / "bad.parquet")
+    with pytest.raises(InputError, match=r"bad.parquet, row \d+: value = 'nan'; allowed: a finite number"):
+        load_scenarios(tmp_path / "bad.parquet", fund.market, 12, spread=0.01)
+    names = sorted(set(table["variable"]))
+    values = np.ones((2, 3, len(names)))
+    values[1, 2, names.index("cpi")] = np.nan
+    np.savez(tmp_path / "bad.npz", values=values, times=np.arange(3.0), variables=np.array(names))
+    with pytest.raises(InputError, match=r"bad.npz: scenario '1', time 2: cpi = nan; allowed: a finite number"):
+        load_scenarios(tmp_path / "bad.npz", fund.market, 12, spread=0.01)

@@ -44,6 +44,13 @@ def test_alm_report(alm_dir):
     assert key_rates[0]["objective"] == pytest.approx(doc["sensitivities"][key_rates[0]["factor"]] * 1e-4)
     assert doc["max_rel_diff"] <= 1e-5  # the adjoint against central bumps
     assert set(doc["baselines"]) == {"sixty_forty", "liability_matching"} and len(doc["policy_names"]) == 3
+    assert doc["strategic_mix"] is None  # the built-in fund names none: said, not invented
+    # Every policy's board figures side by side: the studied policy's are the page's own.
+    compared = list(csv.DictReader((alm_dir / "board_policies.csv").open()))
+    assert [row["policy"] for row in compared] == [name for name in doc["policy_names"] for _ in range(2)]
+    assert float(compared[1]["P(funding ratio below one)"]) == doc["p_underfunded"]["below_1"][1]
+    assert float(compared[3]["surplus at risk [million]"]) == doc["baselines"]["sixty_forty"]["board"][
+        "surplus_at_risk"]["surplus_at_risk"][1]
     rows = list(csv.reader((alm_dir / "sensitivities.csv").open()))
     assert len(rows) == 1 + doc["n_risk_factors"]
     assert not (alm_dir.parent / "report.checkpoint.eqx").is_dir()

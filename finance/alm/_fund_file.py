@@ -33,8 +33,9 @@ class Fund(NamedTuple):
     the holdings `factors` (float64 arrays), the liability `schedule`, the `config`,
     `horizon_months`, the `effects` it names (None: all), its `assets` section (the holdings
     follow from it once the study's initial market and effects are known: `fund_holdings`), its
-    `board` settings, and the `files` it was read from (the fund file, then the liability file;
-    reports record their SHA-256)."""
+    `board` settings, the `files` it was read from (the fund file, then the liability file;
+    reports record their SHA-256), its `currency` and its `strategic_mix` (class -> weight, in
+    the market's class order; None where the file names none)."""
 
     name: str
     market: Market
@@ -47,6 +48,7 @@ class Fund(NamedTuple):
     board: BoardSettings = BoardSettings()
     files: tuple[pathlib.Path, ...] = ()
     currency: str = "EUR"
+    strategic_mix: dict[str, float] | None = None
 
 
 class _Locator:
@@ -189,7 +191,20 @@ def load_fund(path: str | os.PathLike) -> Fund:
         raise InputError(f"{file.at('board')}: {error}") from None
     _check_assets(spec.assets, market, file, spec.currency)
     return Fund(spec.name, market, factors, liabilities.schedule, config, spec.horizon_months, effects, spec.assets,
-                board, (path, liability_path), spec.currency)
+                board, (path, liability_path), spec.currency, _strategic_mix(spec.assets.strategic_mix, market, file))
+
+
+def _strategic_mix(given: dict | None, market: Market, file: _Locator) -> dict[str, float] | None:
+    """The strategic mix in the market's class order, or None; refused (with the line) unless it
+    has every class once, weights in [0, 1] summing to 1 (to 1e-9)."""
+    if given is None:
+        return None
+    _keys(file, "assets.strategic_mix", given, market.asset_names)
+    weights = [given[name] for name in market.asset_names]
+    if min(weights) < 0 or max(weights) > 1 or abs(sum(weights) - 1.0) > 1e-9:
+        raise InputError(f"{file.at('assets.strategic_mix')}: assets.strategic_mix = {given} (sum {sum(weights):.12g}); "
+                         "allowed: a weight in [0, 1] per asset class, summing to 1.")
+    return {name: float(given[name]) for name in market.asset_names}
 
 
 _FILE_KEYS = dict(equity_vols="volatility", equity_levels="level")  # a factor group's key in the file

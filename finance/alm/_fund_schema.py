@@ -77,7 +77,9 @@ class AssetsSection(_Section):
     `bond_maturities`, `inflation_linked_maturity` and `credit_maturity`), and either
     `initial_funding_ratio` with the `mix` of the asset classes' values (keys the class names, summing to
     1), or `holdings`, each asset's market value (cash, each non-equity class and each equity
-    index by name) in `holdings_unit`. The funding ratio values the liabilities as the
+    index by name) in `holdings_unit`. `strategic_mix` (optional): the fund's strategic asset
+allocation, a weight per asset class summing to 1, held by monthly rebalancing as the first
+baseline the policy is compared with. The funding ratio values the liabilities as the
     simulation does at the start, with the study's effects (the indexed share of the benefits,
     the credit bucket's spread) on its initial market (the file's, or a scenario set's start)."""
 
@@ -91,6 +93,7 @@ class AssetsSection(_Section):
     mix: dict[str, FiniteNumber] | None = None
     holdings: dict[str, FiniteNumber] | None = None
     holdings_unit: str = "million"
+    strategic_mix: dict[str, FiniteNumber] | None = None
 
 
 class ObjectiveSection(_Section):

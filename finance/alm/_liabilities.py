@@ -1,15 +1,20 @@
 """Liabilities: monthly benefit cash flows on a schedule of rows (buckets of months, optionally
 per cohort), a default from an age profile, and their value on the simulated curve.
 
-A cash flow at maturity tau is mapped onto the two neighbouring key tenors by linear
-interpolation in maturity (cash-flow mapping), so the liability value on a path is
-`sum_k profile[t, k] * exp(-key_rate_k * tenor_k)`: K exponentials per path and month, whatever
-the length of the liability grid. The mapping depends on the cash flows and the month only, not
-on the path, and is computed once per evaluation.
+Each cash flow is discounted at its own date on the curve interpolated from the key rates
+(linear in maturity, flat beyond the ends): the flow paid j months ahead is worth
+`exp(-y(j/12) * j/12)` per unit, `y` the interpolated zero rate, and an indexed flow also grows
+to its date at the current inflation. The value's derivative with respect to a key rate goes
+through the interpolation weights (the bucketed PV01). The cash flows outstanding at each
+month-end depend on the flows only, not on the path, and are laid out once per evaluation.
+
+`key_rate_profile` and `liability_value` keep the cash-flow mapping (each flow split onto its two
+neighbouring key tenors and discounted there), an approximation the model no longer values by.
 """
 
 from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -131,21 +136,78 @@ def monthly_cash_flows(liability_cash_flows, schedule: LiabilitySchedule | None 
     return schedule.monthly(liability_cash_flows)
 
 
-def key_rate_profile(liability_cash_flows, market: Market, n_months: int,
-                     schedule: LiabilitySchedule | None = None) -> jnp.ndarray:
-    """The outstanding cash flows mapped onto the key tenors at each month-end, shape
-    (n_months + 1, n_tenors): row t maps the flows paid after month t, at maturities
-    (m - t) / 12 years. Linear in the cash flows; `schedule` as in `monthly_cash_flows`."""
+def cash_flow_maturities(run_off: int) -> np.ndarray:
+    """The maturities [years] of the outstanding flows, one month to `run_off` months, shape
+    (run_off,): a row of `outstanding_cash_flows` pays column j at (j + 1) / 12 years."""
+    return np.arange(1, run_off + 1) * MONTH
+
+
+def outstanding_cash_flows(liability_cash_flows, n_months: int,
+                           schedule: LiabilitySchedule | None = None) -> jnp.ndarray:
+    """The flows still to pay at each month-end t = 0..n_months, by maturity: row t, column j is
+    the benefit paid j + 1 months after month-end t [million/month], shape (n_months + 1,
+    run_off_months). Linear in the cash flows; `schedule` as in `monthly_cash_flows`."""
     monthly = monthly_cash_flows(liability_cash_flows, schedule)
     run_off = monthly.shape[0]
-    mapping = interpolation_weights(np.arange(1, run_off + 1) * MONTH, market.tenors)
     padded = jnp.concatenate([monthly, jnp.zeros(n_months + 1, monthly.dtype)])
-    outstanding = padded[np.arange(n_months + 1)[:, None] + np.arange(run_off)[None, :]]
+    return padded[np.arange(n_months + 1)[:, None] + np.arange(run_off)[None, :]]
+
+
+def liability_value_at_dates(outstanding, key_rates, tenors, *, indexation=None):
+    """Liability value [million] on each path: every outstanding flow discounted at its own date on
+    the curve interpolated from the key rates.
+
+    **Arguments:**
+    - `outstanding`: one row of `outstanding_cash_flows`, shape (run_off,): the flow paid
+      j + 1 months ahead in column j.
+    - `key_rates`: the key rates, shape (paths, n_tenors) [1/year, continuously compounded].
+    - `tenors` [years], shape (n_tenors,).
+    - `indexation`: `None`, or `(fraction, cpi, inflation)`: that fraction of the benefits is
+      indexed; an indexed flow tau years ahead is worth `cpi * exp(inflation * tau)` nominal per
+      unit, with `cpi` (paths,) the price index since the start and `inflation` (paths,) the
+      current rate [1/year].
+
+    **Returns:** shape (paths,): sum_j outstanding_j exp(-y(tau_j) tau_j) (1 - f + f cpi
+    exp(inflation tau_j)), y(tau) = (1 - a) r_left + a r_right the interpolated zero rate.
+    """
+    run_off = outstanding.shape[-1]
+    maturities = cash_flow_maturities(run_off)
+    # The interpolation as a product with the weights: its transpose is another product, where a
+    # gather's is a scatter, several times slower in the reverse pass (measured, docs/alm.md).
+    zero_rates = key_rates @ jnp.asarray(interpolation_weights(maturities, tenors).T)
+    discount = jnp.exp(-zero_rates * maturities)
+    if indexation is None:
+        return discount @ outstanding
+    fraction_indexed, cpi, inflation = indexation
+    indexed = cpi[:, None] * _monthly_growth(inflation, run_off)
+    return (discount * (1.0 - fraction_indexed + fraction_indexed * indexed)) @ outstanding
+
+
+def _monthly_growth(inflation, run_off: int):
+    """exp(inflation x m / 12) for m = 1..run_off on each path, shape (paths, run_off), from the
+    growth over whole years times the growth within the year (m = 12 y + q): run_off / 12 + 12
+    exponentials a path instead of run_off, equal to round-off."""
+    years = jnp.exp(inflation[:, None] * np.arange(run_off // 12 + 1))
+    within = jnp.exp(inflation[:, None] * np.arange(12) * MONTH)
+    return (years[:, :, None] * within[:, None, :]).reshape(inflation.shape[0], -1)[:, 1:run_off + 1]
+
+
+def key_rate_profile(liability_cash_flows, market: Market, n_months: int,
+                     schedule: LiabilitySchedule | None = None) -> jnp.ndarray:
+    """The outstanding cash flows mapped onto the key tenors at each month-end (cash-flow
+    mapping), shape (n_months + 1, n_tenors): row t maps the flows paid after month t, at
+    maturities (m - t) / 12 years, each split onto its two neighbouring key tenors by linear
+    interpolation in maturity. Linear in the cash flows; `schedule` as in `monthly_cash_flows`.
+    An approximation: the model values each flow at its own date (`liability_value_at_dates`)."""
+    outstanding = outstanding_cash_flows(liability_cash_flows, n_months, schedule)
+    mapping = interpolation_weights(cash_flow_maturities(outstanding.shape[1]), market.tenors)
     return outstanding @ mapping
 
 
 def liability_value(profile_row, key_rates, tenors, *, indexation=None):
-    """Liability value [million] on each path.
+    """The value [million] on each path of cash flows mapped onto the key tenors
+    (`key_rate_profile`), each tenor's amount discounted at its key rate: the cash-flow-mapping
+    approximation, kept for comparison; the model values by `liability_value_at_dates`.
 
     **Arguments:**
     - `profile_row`: one row of `key_rate_profile`, shape (n_tenors,).
@@ -166,15 +228,30 @@ def liability_value(profile_row, key_rates, tenors, *, indexation=None):
 def starting_liability_value(factors: dict, market: Market, schedule: LiabilitySchedule | None = None,
                              indexation: float | None = None):
     """The liability value [million] on the initial curve, as the simulation values it at the
-    start: with `indexation` (the indexed share of the benefits, growing at the initial
-    inflation), or without (None); a traceable scalar."""
-    profile = key_rate_profile(factors["liability_cash_flows"], market, 0, schedule)[0]
+    start (`liability_value_at_dates`): with `indexation` (the indexed share of the benefits,
+    growing at the initial inflation), or without (None); a traceable scalar."""
+    outstanding = outstanding_cash_flows(factors["liability_cash_flows"], 0, schedule)[0]
     rates = jnp.asarray(factors["key_rates"])[None, :]
     indexed = None if indexation is None else (indexation, jnp.ones(1), jnp.reshape(factors["inflation"], (1,)))
-    return liability_value(profile, rates, market.tenors, indexation=indexed)[0]
+    return liability_value_at_dates(outstanding, rates, market.tenors, indexation=indexed)[0]
 
 
 def initial_liability_value(factors: dict, market: Market, schedule: LiabilitySchedule | None = None,
                             indexation: float | None = None) -> float:
     """`starting_liability_value` as a host float [million]."""
     return float(starting_liability_value(factors, market, schedule, indexation))
+
+
+def liability_duration_as_valued(factors: dict, market: Market, schedule: LiabilitySchedule | None = None,
+                                 indexation: float | None = None) -> float:
+    """The liabilities' duration [years] as the simulation values them at the start: -dL/ds / L
+    for a parallel shift s of every key rate (forward-mode AD through `starting_liability_value`,
+    the indexed share included). With continuous compounding it is the present-value-weighted
+    mean date of the valued flows (their Macaulay duration)."""
+    rates = jnp.asarray(factors["key_rates"])
+
+    def value(shift):
+        return starting_liability_value({**factors, "key_rates": rates + shift}, market, schedule, indexation)
+
+    level, slope = jax.jvp(value, (jnp.zeros(()),), (jnp.ones(()),))
+    return float(-slope / level)

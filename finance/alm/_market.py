@@ -70,25 +70,35 @@ def key_tenors(n_tenors: int) -> np.ndarray:
     return np.geomspace(0.25, 60.0, n_tenors)
 
 
+def interpolation_segments(maturities, tenors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each maturity sits on the key tenors for linear interpolation in maturity, flat beyond
+    both ends: `(left, right, fraction)`, each shape (m,), so that the zero rate at `maturities[i]`
+    is `(1 - fraction[i]) * r[left[i]] + fraction[i] * r[right[i]]`.
+
+    **Arguments:** `maturities` [years], shape (m,); `tenors` [years], shape (k,), increasing.
+    """
+    maturities = np.atleast_1d(np.asarray(maturities, dtype=float))
+    tenors = np.asarray(tenors, dtype=float)
+    if tenors.size == 1:
+        zero = np.zeros(maturities.size, int)
+        return zero, zero, np.zeros(maturities.size)
+    clipped = np.clip(maturities, tenors[0], tenors[-1])
+    right = np.clip(np.searchsorted(tenors, clipped, side="right"), 1, tenors.size - 1)
+    left = right - 1
+    return left, right, (clipped - tenors[left]) / (tenors[right] - tenors[left])
+
+
 def interpolation_weights(maturities, tenors) -> np.ndarray:
     """Weights of linear interpolation in maturity on the key tenors, flat beyond both ends.
 
     **Arguments:** `maturities` [years], shape (m,); `tenors` [years], shape (k,), increasing.
 
     **Returns:** shape (m, k); row i gives the zero rate at `maturities[i]` as a weighted sum of
-    the key rates, and the same row maps a cash flow at that maturity onto the key tenors.
+    the key rates: the derivative of that zero rate with respect to each key rate.
     """
-    maturities = np.atleast_1d(np.asarray(maturities, dtype=float))
-    tenors = np.asarray(tenors, dtype=float)
-    weights = np.zeros((maturities.size, tenors.size))
-    clipped = np.clip(maturities, tenors[0], tenors[-1])
-    right = np.clip(np.searchsorted(tenors, clipped, side="right"), 1, max(tenors.size - 1, 1))
-    if tenors.size == 1:
-        weights[:, 0] = 1.0
-        return weights
-    left = right - 1
-    fraction = (clipped - tenors[left]) / (tenors[right] - tenors[left])
-    rows = np.arange(maturities.size)
+    left, right, fraction = interpolation_segments(maturities, tenors)
+    weights = np.zeros((left.size, np.size(tenors)))
+    rows = np.arange(left.size)
     weights[rows, left] = 1.0 - fraction
     weights[rows, right] += fraction
     return weights

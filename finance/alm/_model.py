@@ -28,7 +28,8 @@ from snapo_ode import EffectCatalogue, InputError, Scene, Settings, check_choice
 
 from ._assets import MarketState, gross_returns, initial_prices, scenario_returns, zero_rate
 from ._factors import FactorLayout
-from ._liabilities import LiabilitySchedule, bucket_schedule, key_rate_profile, liability_value, starting_liability_value
+from ._liabilities import (
+    LiabilitySchedule, bucket_schedule, liability_value_at_dates, outstanding_cash_flows, starting_liability_value)
 from ._market import MONTH, RATE_DRIVERS, Market
 from ._market_step import next_market, scenario_state
 from ._policy import AbstractRebalancing
@@ -213,11 +214,11 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
     indexed = scene.has("inflation_indexation")
     turnover_sharpness = config.turnover_sharpness if smooth_constraints else None
     floor_sharpness = config.floor_sharpness if smooth_constraints else None
-    tenors = jnp.asarray(market.tenors)
+    tenors = market.tenors
     n_rate, n_equity, n_rate_keys = len(RATE_DRIVERS), market.n_equities, market.n_tenors
     origin = shocks[0] if problem.external_scenarios else None
     schedule = problem.schedule
-    profile = key_rate_profile(factors["liability_cash_flows"], market, horizon, schedule)
+    outstanding = outstanding_cash_flows(factors["liability_cash_flows"], horizon, schedule)
     benefits = schedule.monthly(factors["liability_cash_flows"])
     benefits = jnp.concatenate([benefits, jnp.zeros(horizon, benefits.dtype)])[:horizon]
     key_rates0 = jnp.asarray(factors["key_rates"])
@@ -226,7 +227,7 @@ def simulate(problem: ALMProblem, policy: AbstractRebalancing, factors: dict, sh
 
     def liabilities(month, state: MarketState):
         indexation = (config.indexation, state.cpi, state.inflation) if indexed else None
-        return liability_value(profile[month], state.key_rates, tenors, indexation=indexation)
+        return liability_value_at_dates(outstanding[month], state.key_rates, tenors, indexation=indexation)
 
     ones = jnp.ones(n_paths)
     start = MarketState(jnp.broadcast_to(key_rates0, (n_paths, key_rates0.size)),

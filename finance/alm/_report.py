@@ -19,7 +19,8 @@ from ._factors import factor_names, named_sensitivities
 from ._market import MONTH
 from ._model import simulate
 from ._sensitivities import PATH_SPECS
-from ._study import baselines, run_alm, study_for
+from ._baselines import baselines
+from ._study import run_alm, study_for
 
 BASIS_POINT = 1e-4
 # The ladder's groups: (group, shift per entry, the shift in words). Rates move by a basis point;
@@ -97,7 +98,7 @@ def build_alm_report(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_
         mesh_of(result.shocks), repeats=3)
     funding_sensitivities = named_sensitivities(gradient, study.layout, study.market, study.problem.schedule)
     names = factor_names(study.layout, study.market, study.problem.schedule)
-    mixes = baselines(study)
+    mixes = baselines(study, None if fund is None else fund.strategic_mix)
     policies = {"trained policy" if result.trained else "untrained policy": result.policy, **mixes}
     data = result.to_json()
     data.update(

@@ -49,7 +49,38 @@ def board_section(data: dict) -> Section:
         Table(("key tenor", "assets [years]", "liabilities [years]", "surplus [years of liabilities]",
                "surplus DV01 [million per bp]"), durations, ("Key-rate durations (forward-mode AD at the start)",)),
         Paragraph(("Durations add up over the tenors to the parallel duration; the hedge ratio is the assets' parallel "
-                   "DV01 over the liabilities'.",), "note")))
+                   "DV01 over the liabilities'. A DV01 is the value gained when every rate falls by one basis point "
+                   "(-dV/dr times a basis point): positive for a long bond position, and the liabilities' is positive too.",),
+                  "note"),
+        *comparison_blocks(data)))
+
+
+def comparison_blocks(data: dict) -> tuple:
+    """The board's figures of the studied policy beside each fixed mix (the fund's strategic mix
+    first, where its file names one) at every board date, and the strategic mix's weights."""
+    policy = data["policy_names"][0]
+    sources = [(policy, ())] + [(name, ("baselines", name, "board")) for name in data["baselines"]]
+    rows = []
+    for name, base in sources:
+        for k, month in enumerate(data["p_underfunded"]["months"]):  # the fan holds every month-end from 0
+            rows.append((name, V((*base, "p_underfunded", "months", k), "d"),
+                         V((*base, "p_underfunded", "below_1", k), ".2%"),
+                         V((*base, "p_underfunded", "below_required", k), ".2%"),
+                         V((*base, "surplus_at_risk", "surplus_at_risk", k), ",.2f"),
+                         V((*base, "surplus_at_risk", "expected_shortfall", k), ",.2f"),
+                         V((*base, "funding_ratio_percentiles", "p05", month), ".3f"),
+                         V((*base, "funding_ratio_percentiles", "p50", month), ".3f")))
+    table = Table(("policy", "month", "P(funding ratio below one)", "P(below the required level)",
+                   "surplus at risk [million]", "expected shortfall [million]", "funding ratio p05", "median"),
+                  tuple(rows), ("The board's figures of each policy on the same paths, exact constraints: the "
+                                "studied policy, then the fixed mixes",), csv="board_policies.csv")
+    if data.get("strategic_mix") is None:
+        mix = Paragraph(("The fund file names no strategic mix (assets.strategic_mix), so none is compared.",), "note")
+    else:
+        mix = Table(("asset class", "strategic weight"),
+                    tuple((name, V(("strategic_mix", name), ".1%")) for name in data["strategic_mix"]),
+                    ("The fund's strategic mix (from its file), rebalanced to every month",))
+    return table, mix
 
 
 def _fan_figure(data: dict):

@@ -113,7 +113,9 @@ def methods_section(data: dict) -> Section:
                    "liabilities valued on the simulated curve; a neural rebalancing policy (or a fixed mix) sets the "
                    "weights every month. Scenarios: ", V(("scenarios",)), "; fund: ", V(("fund",)), " (n/a: the "
                    "built-in one), starting at a funding ratio of ", V(("initial_funding_ratio",), ".4f"),
-                   ". Effects: ", V(("effects_text",)), ". The objective is the expected "
+                   " (liabilities of ", V(("initial_liability_value",), ",.2f"), " million, each cash flow discounted at "
+                   "its own date on the interpolated curve; duration ", V(("liability_duration",), ".2f"),
+                   " years, which the liability-matching mix hedges). Effects: ", V(("effects_text",)), ". The objective is the expected "
                    "exponential utility of the discounted terminal surplus less a penalty on funding-ratio shortfalls "
                    "(docs/alm.md); reported with the exact constraints, and with the smooth surrogates used for "
                    "training and sensitivities."),),

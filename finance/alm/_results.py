@@ -69,10 +69,13 @@ class ALMStudy(Result):
     paths against the fixed-mix `baselines`, and its sensitivities (`measurement`, whose fields
     sit at the top level of the JSON). Carries the `policy` and the evaluation `shocks`. `fund`:
     the fund file's name (null: the built-in fund built for N); `initial_funding_ratio`: assets
-    over liabilities at the start, valued as the simulation values them; `scenarios`: "generated"
+    over liabilities at the start, valued as the simulation values them, with those liabilities'
+    `initial_liability_value` [million] and `liability_duration` [years, -dL/ds / L]; `scenarios`: "generated"
     or the scenario file the study ran on; `board`: the board's figures (`_board.board_figures`:
     `funding_ratio_percentiles`, `p_underfunded`, `surplus_at_risk`, `hedge_ratio`,
-    `key_rate_durations`), top-level keys of the JSON."""
+    `key_rate_durations`), top-level keys of the JSON; `baselines`: each fixed mix's evaluation
+    and its `board` figures, the fund's strategic mix first where its file names one
+    (`strategic_mix`: its weights, null where it names none)."""
 
     n_risk_factors: int
     layout: dict
@@ -91,6 +94,9 @@ class ALMStudy(Result):
     initial_funding_ratio: float | None = None
     scenarios: str = "generated"
     board: dict = field(json=False, default_factory=dict)
+    strategic_mix: dict | None = None
+    initial_liability_value: float | None = None
+    liability_duration: float | None = None
 
     def to_json(self) -> dict:
         payload = {**super().to_json(), **self.evaluation.to_json(), **self.measurement.to_json(), **self.board}
@@ -99,7 +105,9 @@ class ALMStudy(Result):
 
     def summary(self) -> str:
         name = f"{self.fund}, " if self.fund else ""
-        lines = [f"{name}N = {self.n_risk_factors}, starting at a funding ratio of {self.initial_funding_ratio:.4f}: "
+        valued = ("" if self.initial_liability_value is None else
+                  f" (liabilities {self.initial_liability_value:,.2f} million, duration {self.liability_duration:.2f} years)")
+        lines = [f"{name}N = {self.n_risk_factors}, starting at a funding ratio of {self.initial_funding_ratio:.4f}{valued}: "
                  f"{self.evaluation.summary()} at {self.horizon_months} months"]
         lines += [f"  {name}: objective {baseline['objective']:.6f}" for name, baseline in self.baselines.items()]
         lines.append(self.measurement.summary())

@@ -63,8 +63,9 @@ def variable_names(market: Market) -> list[str]:
             + ["cpi", "inflation", "spread"])
 
 
-def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """(values (scenarios, times, variables), times, variable names) from any of the formats."""
+def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str], list[str]]:
+    """(values (scenarios, times, variables), times, variable names, scenario ids) from any of the
+    formats (an NPZ file's scenarios are numbered from 0)."""
     where = f"scenario file {path}"
     suffix = path.suffix.lower()
     if suffix == ".npz":
@@ -81,15 +82,16 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
         if values.ndim != 3 or times.ndim != 1 or values.shape[1:] != (times.size, len(names)):
             raise InputError(f"{where}: values has shape {values.shape}; expected (scenarios, {times.size} times, "
                              f"{len(names)} variables).")
-        return values, times, names
+        return values, times, names, [str(s) for s in range(values.shape[0])]
     if suffix not in (".csv", ".parquet"):
         raise InputError(f"{where}: unknown format {suffix!r}; allowed: .csv, .parquet (long tables) or .npz.")
     try:
         if suffix == ".csv":
-            # Blank lines kept (so a row's line is its index + 2) and dropped below; ids as text ("01" != "1").
+            # Blank lines kept (so a row's line is its index + 2) and dropped below; every cell as its text
+            # (ids: "01" != "1"; a bad number is reported as written), converted in `_pivoted`.
             table = pd.read_csv(io.StringIO(read_text(path, "scenario", MAX_SCENARIO_BYTES)), skipinitialspace=True,
-                                dtype={"scenario": str, "variable": str}, skip_blank_lines=False)
-            table = table[~table.isna().all(axis=1)].copy()
+                                dtype=str, keep_default_na=False, skip_blank_lines=False)
+            table = table[~(table.fillna("").apply(lambda column: column.str.strip()) == "").all(axis=1)].copy()
         else:
             table = pd.read_parquet(path)
     except InputError:
@@ -108,7 +110,12 @@ def _row(where, table: pd.DataFrame, position: int, line_offset) -> str:
     return f"{where}, line {index + line_offset}" if line_offset is not None else f"{where}, row {index + 1}"
 
 
-def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def _cell(value) -> str:
+    """A cell as the file has it: a CSV's text, a Parquet number as Python prints it."""
+    return value if isinstance(value, str) else str(value.item() if hasattr(value, "item") else value)
+
+
+def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, np.ndarray, list[str], list[str]]:
     for column in ("scenario", "variable"):
         empty = np.flatnonzero(table[column].isna().to_numpy() | (table[column].astype(str).str.strip() == ""))
         if empty.size:
@@ -117,7 +124,7 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
         numbers = pd.to_numeric(table[column], errors="coerce")
         bad = np.flatnonzero(~np.isfinite(numbers.to_numpy(float)))
         if bad.size:
-            raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {table[column].iloc[bad[0]]!r}; "
+            raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {_cell(table[column].iloc[bad[0]])!r}; "
                              "allowed: a finite number.")
         table[column] = numbers
     scenario_index, scenarios = pd.factorize(table["scenario"].astype(str))  # in the file's order
@@ -127,7 +134,7 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
     counts = np.bincount(cells, minlength=scenarios.size * times.size * names.size)
     if np.any(counts > 1):
         first = int(np.flatnonzero(counts[cells] > 1)[1])
-        raise InputError(f"{_row(where, table, first, line_offset)}: scenario {table['scenario'].iloc[first]!r}, time "
+        raise InputError(f"{_row(where, table, first, line_offset)}: scenario {_cell(table['scenario'].iloc[first])!r}, time "
                          f"{table['time'].iloc[first]:g}, {table['variable'].iloc[first]} is given twice.")
     if np.any(counts == 0):
         cell = int(np.flatnonzero(counts == 0)[0])
@@ -137,7 +144,7 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
                          "scenario needs every variable at every time.")
     values = np.empty(scenarios.size * times.size * names.size)
     values[cells] = table["value"].to_numpy(float)
-    return values.reshape(scenarios.size, times.size, names.size), times, [str(n) for n in names]
+    return values.reshape(scenarios.size, times.size, names.size), times, [str(n) for n in names], list(scenarios)
 
 
 def _monthly(values: np.ndarray, times: np.ndarray, horizon: int, where: str, logarithmic: np.ndarray) -> np.ndarray:
@@ -172,7 +179,7 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
     where = f"scenario file {path}"
     if not path.is_file():
         raise InputError(f"scenario file {str(path)!r} does not exist.")
-    values, times, names = _table(path)
+    values, times, names, ids = _table(path)
     tenors = {name: float(_TENOR.match(name).group(1)) for name in names if _TENOR.match(name)}
     equities = [f"equity_{name}" for name in market.equity_names]
     allowed = {*tenors, *equities, "cpi", "inflation", "spread"}
@@ -183,7 +190,9 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
                          f"the variables are zero_rate_<tenor in years> (one or more), "
                          f"{', '.join(equities)} (the fund's equity indices), cpi, and optionally inflation and spread.")
     if not np.all(np.isfinite(values)):
-        raise InputError(f"{where}: a value is not finite (NaN or infinite).")
+        s, t, v = np.argwhere(~np.isfinite(values))[0]
+        raise InputError(f"{where}: scenario {ids[s]!r}, time {times[t]:g}: {names[v]} = {_cell(values[s, t, v])}; allowed: a "
+                         "finite number.")
     column = {name: i for i, name in enumerate(names)}
     for name in [*equities, "cpi"]:
         if np.any(values[..., column[name]] <= 0):
@@ -194,7 +203,10 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
             raise InputError(f"{where}: {first} and {second} are the same tenor ({tenors[first]:g} years); give it once.")
     rates = values[..., [column[name] for name in order]]
     if np.any(np.abs(rates) >= 0.5):
-        raise InputError(f"{where}: a zero rate of {rates.flat[np.argmax(np.abs(rates))]:g}; allowed: (-0.5, 0.5).")
+        s, t, k = np.argwhere(np.abs(rates) >= 0.5)[0]
+        raise InputError(f"{where}: scenario {ids[s]!r}, time {times[t]:g}: {order[k]} = {rates[s, t, k]:g}; allowed: "
+                         "(-0.5, 0.5).")
+    _refuse_starts_apart(values, names, ids, [*equities, "cpi"], where)
     keyed = rates @ interpolation_weights(market.tenors, np.array([tenors[n] for n in order])).T
     cpi = values[..., column["cpi"]]
     if "inflation" in column:
@@ -210,6 +222,20 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
     logarithmic = np.zeros(stacked.shape[-1], bool)
     logarithmic[market.n_tenors:market.n_tenors + market.n_equities + 1] = True
     return ScenarioSet(_monthly(stacked, times, horizon_months, where, logarithmic), str(path))
+
+
+def _refuse_starts_apart(values: np.ndarray, names: list[str], ids: list[str], indices: list[str], where: str) -> None:
+    """Refuse a set whose scenarios start from different markets, naming the file's variable and
+    two scenarios that differ at the first time (the `indices`' levels may differ: only their
+    returns are used)."""
+    origin = values[:, 0, :]
+    apart = np.abs(origin - origin[0]).max(axis=0)
+    for v in np.flatnonzero(apart > 1e-9):
+        if names[v] not in indices:
+            s = int(np.argmax(np.abs(origin[:, v] - origin[0, v])))
+            raise InputError(f"{where}: {names[v]} differs between scenarios at the first time: {origin[0, v]:g} in "
+                             f"scenario {ids[0]!r}, {origin[s, v]:g} in scenario {ids[s]!r}; every scenario starts "
+                             "from the same market.")
 
 
 def write_scenarios(path: str | os.PathLike, scenarios: ScenarioSet, market: Market) -> pathlib.Path:

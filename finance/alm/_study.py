@@ -31,15 +31,15 @@ from ._factors import (
     named_sensitivities,
     split_reported,
 )
-from ._liabilities import key_rate_profile
 from ._market import Market, correlated_shocks, key_tenors
 from ._board import BoardSettings, board_figures
 from ._fund_file import Fund, fund_holdings
 from ._memory import check_size
 from ._scenario_file import ScenarioSet
 from ._scenarios import batch_drawer, on_devices, scenario_start, split_for_training
-from ._model import EFFECTS, ALMConfig, ALMProblem, indexed_share, initial_funding_ratio, simulate
-from ._policy import AbstractRebalancing, NeuralRebalancing, liability_matching, sixty_forty
+from ._model import EFFECTS, ALMConfig, ALMProblem, indexed_share, initial_funding_ratio, initial_values, simulate
+from ._baselines import baselines, liability_duration
+from ._policy import AbstractRebalancing, NeuralRebalancing
 
 
 class Study(NamedTuple):
@@ -135,19 +135,16 @@ def scenarios(study: Study, n_paths: int, key, mesh=None) -> jax.Array:
     return draw(key)
 
 
-def liability_duration(study: Study) -> float:
-    """Macaulay duration [years] of the liabilities on the initial curve."""
-    factors = {**study.fixed, **study.reported}
-    profile = np.asarray(key_rate_profile(factors["liability_cash_flows"], study.market, 0, study.problem.schedule)[0])
-    tenors = study.market.tenors
-    values = profile * np.exp(-np.asarray(factors["key_rates"]) * tenors)
-    return float(np.sum(values * tenors) / np.sum(values))
-
-
-def baselines(study: Study) -> dict[str, AbstractRebalancing]:
-    """The fixed-mix policies the trained one is compared with."""
-    return {"sixty_forty": sixty_forty(study.market),
-            "liability_matching": liability_matching(study.market, liability_duration(study))}
+def compared_baselines(study: Study, shocks, board: BoardSettings, strategic_mix: dict | None = None) -> dict:
+    """Each baseline of `baselines` evaluated on `shocks` (`evaluate`'s JSON) with its `board`
+    figures (`board_figures`, as the policy's), and the strategic mix's `weights`: the `baselines`
+    of `snapo alm`'s JSON."""
+    out = {}
+    for name, mix in baselines(study, strategic_mix).items():
+        out[name] = {**evaluate(study, mix, shocks).to_json(), "board": board_figures(study, mix, shocks, board)}
+        if name == "strategic_mix":
+            out[name]["weights"] = dict(strategic_mix)
+    return out
 
 
 def train_policy(study: Study, *, steps: int, n_paths: int = 256, key=None,
@@ -300,13 +297,17 @@ def run_alm(n_risk_factors: int = 100, *, n_paths: int = 1000, horizon_months: i
     else:
         policy = NeuralRebalancing(study.market, key=jax.random.fold_in(jax.random.fold_in(key, 1), 0))
         train_seconds = train_compile = 0.0
+    board = board or (fund.board if fund is not None else BoardSettings())
+    strategic_mix = None if fund is None else fund.strategic_mix
     return ALMStudy(
         n_risk_factors=study.layout.n_risk_factors, layout=study.layout._asdict(), paths=n_paths,
         horizon_months=horizon_months, effects=sorted(study.problem.scene.active), trained=bool(train_steps),
         evaluation=evaluate(study, policy, shocks),
-        baselines={name: evaluate(study, mix, shocks).to_json() for name, mix in baselines(study).items()},
+        baselines=compared_baselines(study, shocks, board, strategic_mix), strategic_mix=strategic_mix,
         train_seconds=train_seconds, train_compile_seconds=train_compile,
         measurement=measure_sensitivities(study, policy, shocks, baselines=bump), policy=policy, shocks=shocks,
         fund=None if fund is None else fund.name, scenarios="generated" if scenario_set is None else scenario_set.source,
         initial_funding_ratio=initial_funding_ratio(study.problem, {**study.fixed, **study.reported}),
-        board=board_figures(study, policy, shocks, board or (fund.board if fund is not None else BoardSettings())))
+        initial_liability_value=float(initial_values(study.problem, {**study.fixed, **study.reported})[1]),
+        liability_duration=liability_duration(study),
+        board=board_figures(study, policy, shocks, board))
