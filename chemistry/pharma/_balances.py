@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._chain import PharmaChain
-from ._crystallizer import EquilibriumIsolation, Slurry
+from ._crystallizer import Slurry, seed_mass
 from ._filter import Filter
 from ._parameters import ChainInputs
 from ._unit import Liquid, Solids
@@ -60,7 +60,7 @@ def mass_balances(chain: PharmaChain, inputs: ChainInputs) -> dict[str, jnp.ndar
             # The crystals' growth (the seeds aside) is the API, impurity and degradant the liquor lost
             # (the impurity and degradant are counted as they leave it: `impurity_solid`).
             crystals, held = outlet.crystals, outlet.crystal_masses(masses, roles)
-            seeds = 0.0 if isinstance(unit, EquilibriumIsolation) else parameters[name]["seed_loading"]
+            seeds = seed_mass(unit, parameters[name])
             lost = (outlet.liquor[roles.api] - crystals.api) * masses[roles.api] + held[roles.impurity] + held[roles.degradant]
             residuals[name] = _relative(crystals.crystal_mass - seeds - lost, crystals.crystal_mass)
         elif isinstance(unit, Filter):
