@@ -43,3 +43,10 @@ def test_the_coil_follows_a_volume_change_and_its_jacket_is_per_reactor_volume()
     assert tuple(check.reactors) == ("coupling", "coil")
     assert (check.r1_amounts, check.r1_temperature) == check.reactors["coupling"]
     assert check.reactors["coil"][0] <= 1e-8 and check.reactors["coil"][1] <= 1e-10
+    # Its molar volumes differ, so the rate laws' activity concentrations x_k / v_k (the
+    # species-molar-volume basis) are not the molar concentrations: the rates still are Cantera's.
+    concentrations = np.asarray(coil_inlet.amounts) / float(np.asarray(coil_inlet.amounts) @ volumes)
+    activities = np.asarray(chain.mechanism.activity_concentrations(concentrations))
+    present = concentrations > 0  # no water before the crystallizer
+    assert np.max(np.abs(activities[present] / concentrations[present] - 1)) > 0.2
+    assert check.rates_of_progress <= 1e-12 and check.net_production <= 1e-10
