@@ -66,15 +66,15 @@ class LiquidBatch(eqx.Module):
                   jacket_ua):
         """The `rhs`'s arguments for a batch from `inlet` for `duration` [s]: the rates, the
         `jacket`, the duration and the heat transfer U a V_in / V0 [W/K per m^3 of V0] of
-        `jacket_ua` [W/K per m^3 of the reactor] (see the class docstring)."""
+        `jacket_ua` [W/m^3/K, per m^3 of the reactor] (see the class docstring)."""
         inlet_volume = inlet.amounts @ self.mechanism.molar_volumes  # V_in / V0
         return rates, jacket, duration, jacket_ua * inlet_volume
 
     def run(self, inlet: Liquid, jacket: AbstractTemperatureProfile, duration, rates: RateParameters, jacket_ua,
             solver: SolverSettings, *, saveat: diffrax.SaveAt | None = None):
         """Integrate from `inlet` for `duration` [s] with the jacket at `jacket(s)` [K]; `jacket_ua`
-        [W/m^3/K] per m^3 of the reactor. Returns the outlet `Liquid`, or with `saveat` the `diffrax.Solution` (state as
-        in `rhs`)."""
+        [W/m^3/K], per m^3 of the reactor. Returns the outlet `Liquid`, or with `saveat` the
+        `diffrax.Solution` (state as in `rhs`)."""
         solution = solver.solve(self.rhs, 0.0, 1.0, self.start(inlet),
                                 self.arguments(inlet, jacket, duration, rates, jacket_ua), saveat=saveat)
         if saveat is not None:
