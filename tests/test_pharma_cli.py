@@ -66,3 +66,11 @@ def test_the_report_refuses_a_loose_tolerance_under_strict_before_the_design_spa
     err = capsys.readouterr().err
     assert "snapo: warning: solver error" in err and "--strict" in err
     assert not out.exists()
+
+
+def test_the_help_follows_the_process_not_the_built_in_chain(capsys):
+    for verb in ("sensitivities", "train", "design-space"):
+        assert main(["pharma", verb, "--help"]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        assert "its units, CPPs and CQAs are the file's" in text and "another process's CPPs: --set" in text
+        assert "api_chain's CPP r1_temperature" in text and "the stiff units R1 and R2" not in text

@@ -57,4 +57,8 @@ def test_trained_profiles_raise_the_yield_and_are_checked_hard():
     assert all(margin >= 0 for margin in trained["spec_margins"].values())
     assert trained["gap"] == pytest.approx(trained["api_yield"] - trained["smooth_objective"])
     assert all(303.15 <= t <= 323.15 for t in study.r1_jacket_profile)
+    # The JSON names each profile by its unit; r1_jacket_profile stays as a deprecated alias.
+    payload = study.to_json()
+    assert payload["profiles"] == {"r1": study.r1_jacket_profile, "crystallizer": study.cooling_profile}
+    assert payload["r1_jacket_profile"] == payload["profiles"][study.jacket_unit]
     assert study.cooling_profile[0] == pytest.approx(318.15) and study.cooling_profile[-1] == pytest.approx(278.15)

@@ -74,6 +74,10 @@ BAD_FILES = [
     ("  X: {role: byproduct}", "", "line 16: species 'X' of the mechanism has no role"),
     ("target: dryer.temperature", "target: dryer.pressure", r"line 75: cpps\[dryer_temperature\].target"),
     ("definition: {mass_fraction: I}", "definition: {mass_fraction: Q}", r"line 80: .*mass_fraction: Q"),
+    ("definition: {mass_fraction: I}", "definition: {residual_solvent: I}",
+     r"line 80: .*residual_solvent: I\}: the species has no role of solvent, antisolvent"),
+    ("definition: {mass_fraction: I}", "definition: {mass_fraction: I, residual_solvent: S}",
+     r"line 80: .*allowed: one of mass_fraction or residual_solvent"),
     ("nor: [0.4, 0.6]", "nor: [0.2, 0.6]", r"line 73: cpps\[cooling_rate\].*nor inside par"),
     ("growth_rate: 5.0e-8 m/s", "growth_rate: 5.0e-8 kg/s", r"line 43: .*crystallizer.growth_rate = '5.0e-8 kg/s' "
                                                               "does not convert to 'm/s'"),

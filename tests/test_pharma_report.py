@@ -32,9 +32,19 @@ def test_html_numbers_are_the_json_and_the_evidence_holds(report_dir):
     doc, page = check_html(report_dir)
     assert len(page.values) >= 250 and len(page.images) == 3
     assert doc["report"]["sections"] == ["Executive summary", "Process parameters and specifications", "Nominal CQAs",
-                                         "Sensitivities", "Design space", "Methods", "Provenance"]
+                                         "Mass balances", "Sensitivities", "Design space", "Methods", "Provenance"]
     verification = doc["verification"]
     assert verification["max_rel_diff_fd"] <= 1e-5 and verification["cantera_r1_amounts"] <= 1e-8
+    # Every reactor against Cantera's own, the first one's also under its old name.
+    assert list(verification["cantera_reactors"]) == ["r1", "r2"]
+    assert verification["cantera_reactors"]["r1"]["amounts"] == verification["cantera_r1_amounts"]
+    assert max(r["amounts"] for r in verification["cantera_reactors"].values()) <= 1e-8
+    # Every unit's balance, stated in the report and its CSV, at round-off.
+    balances = doc["mass_balances"]
+    assert [row["unit"] for row in balances] == ["r1", "r2", "crystallizer", "filter", "dryer"]
+    assert all(row["residual"] <= 1e-12 for row in balances)
+    balance_rows = list(csv.reader((report_dir / "mass_balances.csv").open()))
+    assert [row[0] for row in balance_rows[1:]] == [row["unit"] for row in balances]
     assert verification["r1_stiffness_ratio"] >= 1e6
     provenance = doc["provenance"]
     assert provenance["packages"]["jax"] and len(provenance["git_commit"] or "") == 40

@@ -31,6 +31,6 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                         "parameter_names", "rate_names", "shifted_cqas"),
     "._study": ("BUMP_SOLVER", "REFERENCE", "SensitivityStudy", "sensitivities", "sensitivity_study"),
     "._unit": ("AbstractUnit", "Liquid", "Solids"),
-    "._verification": ("CanteraCheck", "cantera_check", "cantera_r1", "r1_outlet", "r1_trajectory", "scipy_r1",
-                       "stiffness_ratio"),
+    "._verification": ("CanteraCheck", "cantera_check", "cantera_r1", "cantera_reactor", "cantera_reactors",
+                       "outlet_differences", "r1_outlet", "r1_trajectory", "scipy_r1", "stiffness_ratio"),
 })

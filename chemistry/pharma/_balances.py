@@ -14,10 +14,19 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._chain import PharmaChain
-from ._crystallizer import EquilibriumIsolation, Slurry
+from ._crystallizer import Slurry, seed_mass
 from ._filter import Filter
 from ._parameters import ChainInputs
 from ._unit import Liquid, Solids
+from ._unit_catalogue import UNIT_ROLES
+
+CONSERVED = {
+    "reactor": "total mass and every element, inlet to outlet",
+    "crystallizer": "the crystals' growth (the seeds aside) against the API, impurity and degradant the liquor lost",
+    "filter": "API, impurity, degradant, other solutes and solvent: slurry and wash against cake and filtrate",
+    "dryer": "the solids (the API it degrades stays as degradant); the solvent only leaves",
+}
+"""What the balance of a unit of each role holds (`mass_balances`), as the report states it."""
 
 
 @functools.cache
@@ -60,7 +69,7 @@ def mass_balances(chain: PharmaChain, inputs: ChainInputs) -> dict[str, jnp.ndar
             # The crystals' growth (the seeds aside) is the API, impurity and degradant the liquor lost
             # (the impurity and degradant are counted as they leave it: `impurity_solid`).
             crystals, held = outlet.crystals, outlet.crystal_masses(masses, roles)
-            seeds = 0.0 if isinstance(unit, EquilibriumIsolation) else parameters[name]["seed_loading"]
+            seeds = seed_mass(unit, parameters[name])
             lost = (outlet.liquor[roles.api] - crystals.api) * masses[roles.api] + held[roles.impurity] + held[roles.degradant]
             residuals[name] = _relative(crystals.crystal_mass - seeds - lost, crystals.crystal_mass)
         elif isinstance(unit, Filter):
@@ -74,3 +83,12 @@ def mass_balances(chain: PharmaChain, inputs: ChainInputs) -> dict[str, jnp.ndar
                                           jnp.maximum(after[4] - before[4], 0.0) / before[4])
         inlet = outlet
     return residuals
+
+
+def balance_table(chain: PharmaChain, inputs: ChainInputs) -> list[dict]:
+    """The report's mass-balance table, one row per unit the scene builds in the process's order:
+    its `unit` name, `type`, what its balance holds (`conserved`, `CONSERVED`) and its largest
+    relative `residual` (`mass_balances`)."""
+    residuals = mass_balances(chain, inputs)  # keys sorted, as jit returns a dict
+    return [{"unit": unit.name, "type": unit.type, "conserved": CONSERVED.get(UNIT_ROLES[unit.type], ""),
+             "residual": float(residuals[unit.name])} for unit in chain.process.units if unit.name in residuals]

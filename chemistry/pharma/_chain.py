@@ -19,7 +19,7 @@ from chemistry import MECHANISMS, Mechanism, RateParameters
 from snapo_ode import EffectCatalogue, Scene, Solver, SolverSettings, solver_from_name
 
 from ..kinetics._types import Scalar, Vector
-from ._crystallizer import CrystallizerOutlet, SpeciesRoles
+from ._crystallizer import CrystallizerOutlet, SpeciesRoles, seed_mass
 from ._parameters import ChainInputs, CPPs, PhysicalParameters
 from ._process import check_mechanism, make_cpps, molar_masses, physical_parameters
 from ._process_file import ProcessSpec, load_process
@@ -79,7 +79,10 @@ class ChainResult(NamedTuple):
     - `cake`: the filter's `Solids` [kg per m^3 of liquor].
     - `product`: the dried `Solids` [kg per m^3 of liquor] (the cake without a dryer or the
       drying effect).
-    - `api_yield` [%]: API in the product over the first fed species, in moles.
+    - `api_yield` [%]: API made and isolated over the first fed species, in moles: the API in
+      the product less the seed crystals charged (API the process did not make).
+    - `api_yield_including_seed` [%]: the API in the product, seeds included, over the first
+      fed species, in moles.
     """
 
     outlets: dict
@@ -88,6 +91,7 @@ class ChainResult(NamedTuple):
     cake: Solids
     product: Solids
     api_yield: Scalar
+    api_yield_including_seed: Scalar
 
 
 def _reduce(mechanism: Mechanism, keep: tuple[int, ...]) -> Mechanism:
@@ -290,13 +294,16 @@ class PharmaChain(eqx.Module):
                 profiles[kinds[kind]] = profile
         _, active = self.active(inputs)
         parameters, stream, outlets = self.unit_parameters(inputs), self.feed(inputs), {}
-        liquid = stream
+        liquid, seeds = stream, 0.0
         for name, unit in self.units(inputs, profiles):
             liquid = stream if isinstance(stream, Liquid) else liquid
             stream = outlets[name] = unit(stream, parameters[name], active.rates, self.solver)
+            seeds = seed_mass(unit, parameters[name]) if hasattr(stream, "crystals") else seeds
         slurry = next(o for o in outlets.values() if hasattr(o, "crystals"))
         cake = next(o for o in outlets.values() if isinstance(o, Solids))
         volumes, api = self.mechanism.molar_volumes, self.roles.api
+        # [kmol per m^3 of the crystallizer's liquor]: the first fed species, and the API isolated.
         fed = inputs.physical[f"feed.{next(iter(self.process.feed))}"] / (liquid.amounts @ volumes)
-        api_yield = 100 * stream.api / self.molar_masses[api] / fed
-        return ChainResult(outlets, slurry.liquor, slurry.crystals, cake, stream, api_yield)
+        isolated = stream.api / self.molar_masses[api]
+        return ChainResult(outlets, slurry.liquor, slurry.crystals, cake, stream,
+                           100 * (isolated - seeds / self.molar_masses[api]) / fed, 100 * isolated / fed)

@@ -14,18 +14,21 @@ from ._process_file import CPP_RANGES
 def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
     """The process, CPP values, solver tolerances and effects."""
     parser.add_argument("--process", metavar="FILE", help="a process file (YAML, docs/pharma.md) or the name of a "
-                        "shipped one (api_chain, antisolvent_route); default: the built-in chain, api_chain")
+                        "shipped one (api_chain, antisolvent_route); its units, CPPs and CQAs are the file's; "
+                        "default: api_chain")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", dest="settings",
-                        help="set a CPP by name or target (r1_temperature=315, r1.temperature=315) or a physical "
-                             "parameter (crystallizer.growth_rate=6e-8); the value may carry a unit ('0.5 h'); "
+                        help="set any CPP of the process by its name or target unit.parameter (with api_chain: "
+                             "r1_temperature=315 or r1.temperature=315) or a physical parameter as "
+                             "unit.parameter (crystallizer.growth_rate=6e-8); the value may carry a unit ('0.5 h'); "
                              "repeatable")
     for spec in CPP_RANGES:
         parser.add_argument(f"--{spec.name.replace('_', '-')}", type=number(), default=None,
-                            help=f"{spec.description} [{spec.unit}] (built-in chain: nominal {spec.nominal:g}, PAR "
-                                 f"{spec.par[0]:g}-{spec.par[1]:g})")
+                            help=f"api_chain's CPP {spec.name}: {spec.description} [{spec.unit}] (nominal "
+                                 f"{spec.nominal:g}, PAR {spec.par[0]:g}-{spec.par[1]:g}); another process's "
+                                 "CPPs: --set")
     parser.add_argument("--rtol", type=positive(1), default=1e-8, help="relative tolerance of every unit's solve")
     parser.add_argument("--atol", type=positive(), default=1e-10, help="absolute tolerance (scaled states)")
-    parser.add_argument("--solver", default="rodas5", help="of the stiff units R1 and R2: rodas5 "
+    parser.add_argument("--solver", default="rodas5", help="of the process's reactors (the stiff units): rodas5 "
                         "(default), rodas4, kvaerno5, kvaerno4 or kvaerno3")
     parser.add_argument("--nonstiff-solver", default="tsit5", help="of the crystallizer and the dryer: tsit5, "
                         "dopri5 or a stiff solver's name")
@@ -97,7 +100,7 @@ def run_train(args) -> int:
                            penalty_weight=args.penalty_weight, sharpness=args.sharpness, seed=args.seed,
                            progress=args.progress, checkpoint_path=args.checkpoint, resume=args.resume)
     profiles = study.profiles
-    policies = {".r1.eqx": policy_bytes(profiles.r1_jacket.policy)}
+    policies = {f".{profiles.jacket_unit}.eqx": policy_bytes(profiles.r1_jacket.policy)}  # the built-in's: .r1.eqx
     if profiles.cooling is not None:
         policies[".cooling.eqx"] = policy_bytes(profiles.cooling.policy)
     written = study.publish(args.json, policies)
@@ -200,8 +203,10 @@ def register_pharma(cli) -> None:
     sens.add_argument("--reference-atol", type=positive(), default=1e-14)
     add_accuracy_arguments(sens)
     sens.set_defaults(handler=run_sensitivities)
-    train = cli.command("train", "train the R1 jacket and crystallizer cooling profiles for yield, specs as "
-                        "smooth penalties; evaluate with hard spec checks (policies beside the JSON)", group=pharma)
+    train = cli.command("train", "train the jacket profile of the process's first reactor whose temperature is a "
+                        "CPP and a cooling crystallizer's cooling profile for yield, specs as smooth penalties; "
+                        "evaluate with hard spec checks (JSON 'profiles' by unit; policies beside it, "
+                        ".UNIT.eqx and .cooling.eqx)", group=pharma)
     add_chain_arguments(train)
     train.add_argument("--steps", type=count(), default=60)
     train.add_argument("--learning-rate", type=positive(), default=3e-2)

@@ -5,8 +5,10 @@ The vocabulary, each computed in its unit (`_process_file.CQA_UNITS`) and conver
 file's: `assay` (API in the product as it leaves the last unit, % w/w), `purity` (API in the
 product's solids, dry basis, % w/w), `mass_fraction` of a tracked species (the API, the impurity
 or the degradant, % w/w), `residual_solvent` (ppm w/w) and `loss_on_drying` (% w/w): the solvent
-and antisolvent, `d43` (the volume-weighted mean crystal size, um), `yield` (API over the first
-fed species, mol %)."""
+and antisolvent together, `{residual_solvent: species}` one of them alone (ppm w/w: ICH Q3C
+limits are per solvent), `d43` (the volume-weighted mean crystal size, um), `yield` (API made and
+isolated over the first fed species, mol %: the product's API less the seed crystals charged)
+and `yield_including_seed` (the product's API, seeds included, over the same)."""
 
 import jax
 import jax.numpy as jnp
@@ -35,7 +37,15 @@ def _value(result: ChainResult, definition, roles: dict):
         return 1e6 * result.crystallizer.mean_size()
     if definition == "yield":
         return result.api_yield
-    return 100 * getattr(product, roles[definition[1]]) / product.total  # ("mass_fraction", species)
+    if definition == "yield_including_seed":
+        return result.api_yield_including_seed
+    kind, species = definition
+    if kind == "residual_solvent":  # the solvent is first in `by_solvent`, the antisolvent second
+        if product.by_solvent is None:
+            raise ValueError(f"CQA {{residual_solvent: {species}}}: the process's last unit does not split the "
+                             "solvent by species (Solids.by_solvent); state residual_solvent instead.")
+        return 1e6 * product.by_solvent[0 if roles[species] == "solvent" else 1] / product.total
+    return 100 * getattr(product, roles[species]) / product.total  # ("mass_fraction", species)
 
 
 def cqa_vector(result: ChainResult, process: ProcessSpec | None = None) -> Vector:

@@ -156,6 +156,16 @@ class Crystallizer(eqx.Module):
                                   p["crystal_density"] * p["shape_factor"] * moments[3])
 
 
+def seed_mass(unit: AbstractUnit, parameters: dict):
+    """The seed crystals [kg per m^3 of liquor] the crystallizer `unit` is charged with: its
+    `seed_loading`, none for `EquilibriumIsolation` (no seeds: the solid comes out at the seed
+    size, but from the liquor) or a unit without the parameter. Seeds are API the process did
+    not make: the crystals' mass balance and the net yield take them out."""
+    if isinstance(unit, EquilibriumIsolation):
+        return 0.0
+    return parameters.get("seed_loading", 0.0)
+
+
 class AntisolventAddition(eqx.Module):
     """Antisolvent added at a constant rate over the crystallization: `ratio` m^3 of it per m^3 of
     the initial liquor in all. At normalised time s the volume is 1 + ratio s [m^3 per m^3 of the

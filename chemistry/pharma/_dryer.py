@@ -30,7 +30,8 @@ class DryerOutlet(NamedTuple):
 
 class Dryer(AbstractUnit):
     """The drying stage (type `dryer`) at `temperature` [K] for `time` [s]; `degradation`:
-    whether the API degrades in the solid."""
+    whether the API degrades in the solid. The solvent and the antisolvent leave at the one
+    `drying_rate`, so each keeps its share of the cake's."""
 
     degradation: bool = eqx.field(static=True)
 
@@ -57,5 +58,8 @@ class Dryer(AbstractUnit):
     def __call__(self, inlet: Solids, parameters: dict, rates: RateParameters, solver: SolverSettings) -> Solids:
         solids = inlet.solids
         dried = self.dry(inlet.solvent / solids, inlet.api / solids, parameters, solver)
+        solvent = solids * dried.solvent
+        # One drying rate for the solvent and the antisolvent: each keeps its share of what is left.
+        by_solvent = None if inlet.by_solvent is None else inlet.by_solvent * (solvent / inlet.solvent)
         return inlet._replace(api=solids * dried.api, degradant=inlet.degradant + solids * dried.degradant_formed,
-                              solvent=solids * dried.solvent)
+                              solvent=solvent, by_solvent=by_solvent)

@@ -26,7 +26,7 @@ class FilterStreams(NamedTuple):
 class Filter(AbstractUnit):
     """The filter (type `filter`): the cake keeps `cake_liquor` kg of liquid per kg of crystals;
     the displacement wash leaves `wash_residue` of that liquor (its solvent and solutes) and fills
-    the rest of the cake's liquid with wash solvent. The liquor at the end of the crystallization
+    the rest of the cake's liquid with wash solvent (the process's `solvent` species). The liquor at the end of the crystallization
     is the fed liquor less what the crystals took (API, and with incorporation impurity and
     degradant). Masses [kg per m^3 of liquor]."""
 
@@ -49,6 +49,7 @@ class Filter(AbstractUnit):
             degradant=held[d] + retained[d],
             other=jnp.sum(retained) - retained[p] - retained[i] - retained[d] - solvents,
             solvent=solvents + wash,
+            by_solvent=jnp.stack([retained[k] for k in roles.solvents]).at[0].add(wash),
         )
         return FilterStreams(cake, liquor_masses - retained, wash)
 

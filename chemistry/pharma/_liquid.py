@@ -25,8 +25,14 @@ class LiquidBatch(eqx.Module):
     """The physics of a liquid batch (shared by R1 and R2).
 
     - `mechanism`: the `Mechanism` (reduced to the active reactions).
-    - `energy_balance`: integrate T with the jacket (U a (T_jacket - T), per initial volume);
-      otherwise the batch is isothermal at the jacket temperature.
+    - `energy_balance`: integrate T with the jacket; otherwise the batch is isothermal at the
+      jacket temperature.
+
+    The jacket's U a [W/m^3/K] is per m^3 of the reactor, taken at its inlet: a fluid element of
+    inlet volume V_in exchanges U a V_in (T_jacket - T), as Cantera's reactor of volume V_in with
+    a wall of area a V_in does. The state is per m^3 of the first feed (V0), which a unit after
+    one that changes the volume (a CSTR that shrinks the liquid) no longer enters with, so the
+    heat term is scaled by V_in / V0 (`arguments`).
     """
 
     mechanism: Mechanism
@@ -39,7 +45,7 @@ class LiquidBatch(eqx.Module):
 
     def rhs(self, s, state, args):
         """d state / d s over the normalised time s in [0, 1]."""
-        rates, jacket, duration, jacket_ua = args
+        rates, jacket, duration, heat_transfer = args
         if not self.energy_balance:
             return duration * self.production(jacket(s), state, rates)
         amounts, temperature = state[:-1], TEMPERATURE_SCALE * state[-1]
@@ -47,7 +53,7 @@ class LiquidBatch(eqx.Module):
         thermo = self.mechanism.thermo
         enthalpy = GAS_CONSTANT * temperature * thermo.h_rt(temperature)  # [J/kmol]
         heat_capacity = amounts @ (GAS_CONSTANT * thermo.cp_r(temperature))  # [J/K per m^3 of V0]
-        heating = jacket_ua * (jacket(s) - temperature) - dy @ enthalpy  # [W per m^3 of V0]
+        heating = heat_transfer * (jacket(s) - temperature) - dy @ enthalpy  # [W per m^3 of V0]
         return duration * jnp.append(dy, heating / heat_capacity / TEMPERATURE_SCALE)
 
     def start(self, inlet: Liquid):
@@ -56,13 +62,21 @@ class LiquidBatch(eqx.Module):
             return jnp.append(inlet.amounts, inlet.temperature / TEMPERATURE_SCALE)
         return inlet.amounts
 
+    def arguments(self, inlet: Liquid, jacket: AbstractTemperatureProfile, duration, rates: RateParameters,
+                  jacket_ua):
+        """The `rhs`'s arguments for a batch from `inlet` for `duration` [s]: the rates, the
+        `jacket`, the duration and the heat transfer U a V_in / V0 [W/K per m^3 of V0] of
+        `jacket_ua` [W/m^3/K, per m^3 of the reactor] (see the class docstring)."""
+        inlet_volume = inlet.amounts @ self.mechanism.molar_volumes  # V_in / V0
+        return rates, jacket, duration, jacket_ua * inlet_volume
+
     def run(self, inlet: Liquid, jacket: AbstractTemperatureProfile, duration, rates: RateParameters, jacket_ua,
             solver: SolverSettings, *, saveat: diffrax.SaveAt | None = None):
         """Integrate from `inlet` for `duration` [s] with the jacket at `jacket(s)` [K]; `jacket_ua`
-        [W/m^3/K]. Returns the outlet `Liquid`, or with `saveat` the `diffrax.Solution` (state as
-        in `rhs`)."""
-        solution = solver.solve(self.rhs, 0.0, 1.0, self.start(inlet), (rates, jacket, duration, jacket_ua),
-                                saveat=saveat)
+        [W/m^3/K], per m^3 of the reactor. Returns the outlet `Liquid`, or with `saveat` the
+        `diffrax.Solution` (state as in `rhs`)."""
+        solution = solver.solve(self.rhs, 0.0, 1.0, self.start(inlet),
+                                self.arguments(inlet, jacket, duration, rates, jacket_ua), saveat=saveat)
         if saveat is not None:
             return solution
         end = solution.ys[-1]

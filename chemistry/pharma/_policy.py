@@ -132,7 +132,12 @@ class ProfileStudy(Result):
     R1, constant at the middle of its PAR, and the linear cooling ramp of `cooling_unit`, if any),
     both evaluated with hard spec checks (`evaluate_hard`);
     the profiles sampled at `profile_times`; the training's steps, seconds and loss history; and
-    the trained `profiles` (not in the JSON)."""
+    the trained `profiles` (not in the JSON).
+
+    The JSON names each sampled profile by its unit: "profiles" maps unit name -> the samples
+    (`profiles_by_unit`). "r1_jacket_profile" and "cooling_profile" are the same samples under
+    their first names, kept as deprecated aliases (the jacket's is whichever reactor's
+    `jacket_unit` names, not necessarily one called r1)."""
 
     baseline: dict
     trained: dict
@@ -148,6 +153,14 @@ class ProfileStudy(Result):
     penalty_weight: float
     sharpness: float
     profiles: Profiles = field(json=False)
+
+    def profiles_by_unit(self) -> dict[str, list]:
+        """unit name -> its trained profile sampled at `profile_times` [K]."""
+        cooling = {} if self.cooling_profile is None else {self.cooling_unit: self.cooling_profile}
+        return {self.jacket_unit: self.r1_jacket_profile, **cooling}
+
+    def to_json(self) -> dict:
+        return {**super().to_json(), "profiles": self.profiles_by_unit()}
 
     def summary(self) -> str:
         return "\n".join(

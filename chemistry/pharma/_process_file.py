@@ -19,10 +19,12 @@ from ._unit_catalogue import FLOWSHEET, UNIT_PARAMETERS, UNIT_ROLES, unit_parame
 
 BUILT_IN_PROCESS = pathlib.Path(str(files("chemistry.pharma") / "processes" / "api_chain.yaml"))
 CQA_UNITS = {"assay": "%", "purity": "%", "mass_fraction": "%", "residual_solvent": "ppm", "loss_on_drying": "%",
-             "d43": "um", "yield": "%"}
+             "d43": "um", "yield": "%", "yield_including_seed": "%"}
 """The unit each CQA of the vocabulary is computed in (a file's spec may use any unit that converts)."""
 TRACKED_ROLES = ("api", "impurity", "degradant")
 """The roles whose mass in the product the units track one species each of (a CQA's mass_fraction)."""
+SOLVENT_ROLES = ("solvent", "antisolvent")
+"""The roles whose mass in the product a CQA's {residual_solvent: species} states, one each."""
 
 
 class UnitSpec(NamedTuple):
@@ -167,10 +169,14 @@ def _cqas(data, roles: dict, where) -> tuple[Specification, ...]:
         if cqa.name in names:
             raise InputError(f"{at}: CQA name {cqa.name!r} is used twice.")
         names.add(cqa.name)
-        definition = cqa.definition if isinstance(cqa.definition, str) else ("mass_fraction", cqa.definition["mass_fraction"])
-        if isinstance(definition, tuple) and roles.get(definition[1]) not in TRACKED_ROLES:
-            raise InputError(f"{at}: cqas[{cqa.name}].definition = {{mass_fraction: {definition[1]}}}: the species has no "
-                             f"role of {', '.join(TRACKED_ROLES)} (known: {', '.join(roles)}).")
+        if isinstance(cqa.definition, dict) and len(cqa.definition) != 1:
+            raise InputError(f"{at}: cqas[{cqa.name}].definition = {cqa.definition}; allowed: one of mass_fraction or "
+                             "residual_solvent, with one species.")
+        definition = cqa.definition if isinstance(cqa.definition, str) else next(iter(cqa.definition.items()))
+        allowed = {"mass_fraction": TRACKED_ROLES, "residual_solvent": SOLVENT_ROLES}
+        if isinstance(definition, tuple) and roles.get(definition[1]) not in allowed[definition[0]]:
+            raise InputError(f"{at}: cqas[{cqa.name}].definition = {{{definition[0]}: {definition[1]}}}: the species "
+                             f"has no role of {', '.join(allowed[definition[0]])} (known: {', '.join(roles)}).")
         word = definition if isinstance(definition, str) else definition[0]
         factor = conversion(CQA_UNITS[word], cqa.unit, f"{at}: cqas[{cqa.name}].unit")
         low, high = (-float("inf") if cqa.low is None else cqa.low), (float("inf") if cqa.high is None else cqa.high)

@@ -75,12 +75,14 @@ class CPPEntry(_Section):
 
 
 class CQAEntry(_Section):
-    """A critical quality attribute: `name`, its `definition` (a word of the vocabulary or
-    {mass_fraction: species}), its spec `low` and/or `high` and `unit`."""
+    """A critical quality attribute: `name`, its `definition` (a word of the vocabulary,
+    {mass_fraction: species} or {residual_solvent: species}), its spec `low` and/or `high` and
+    `unit`."""
 
     name: Name
-    definition: (Literal["assay", "purity", "residual_solvent", "loss_on_drying", "d43", "yield"]
-                  | dict[Literal["mass_fraction"], pydantic.StrictStr])
+    definition: (Literal["assay", "purity", "residual_solvent", "loss_on_drying", "d43", "yield",
+                         "yield_including_seed"]
+                  | dict[Literal["mass_fraction", "residual_solvent"], pydantic.StrictStr])
     unit: pydantic.StrictStr
     low: FiniteNumber | None = None
     high: FiniteNumber | None = None

@@ -24,8 +24,8 @@ class ParameterRange(NamedTuple):
 
 class Specification(NamedTuple):
     """A CQA and its specification: `low <= value <= high` (either may be infinite), in `unit`;
-    `definition`: a word of the CQA vocabulary ("assay", "residual_solvent", "d43", "yield") or
-    ("mass_fraction", species); `factor`: from the vocabulary's unit to `unit`."""
+    `definition`: a word of the CQA vocabulary ("assay", "residual_solvent", "d43", "yield", ...) or
+    ("mass_fraction", species) or ("residual_solvent", species); `factor`: from the vocabulary's unit to `unit`."""
 
     name: str
     unit: str

@@ -11,6 +11,7 @@ import numpy as np
 import snapo_ode
 from snapo_ode import Report
 
+from ._balances import balance_table
 from ._chain import PharmaChain
 from ._design_space import design_space
 from ._parameters import ChainInputs, CPPs
@@ -62,7 +63,8 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
     (`CPPs`, the other inputs the process file's; or the `ChainInputs` themselves); solver
     errors against the tight reference above `max_solver_error` are warnings in it, handed to
     `check_warnings(warnings)` (which may raise) before the design space is computed. R1 is
-    checked against Cantera on `mechanism_path` (default: the process's mechanism)."""
+    checked against Cantera on `mechanism_path` (default: the process's mechanism), and so is every
+    reactor against Cantera's own; every unit's mass balance is stated."""
     start = time.perf_counter()
     inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
     cpps = inputs.cpps
@@ -81,13 +83,15 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
     return {
         "process": {"name": chain.process.name, "description": chain.process.description,
                     "units": " -> ".join(f"{u.name} ({u.type})" for u in chain.process.units),
-                    "first_reactor": chain.process.units[0].name},
+                    "first_reactor": chain.process.units[0].name,
+                    "reactor_count": len(cantera.reactors)},
         "operating_point": {r.name: {"unit": r.unit, "value": values[r.name], "nominal": r.nominal, "nor": list(r.nor),
                                      "par": list(r.par), "description": r.description} for r in chain.cpp_ranges},
         "specifications": {s.name: {"unit": s.unit, "low": None if np.isinf(s.low) else s.low,
                                     "high": None if np.isinf(s.high) else s.high, "spec": s.text(),
                                     "description": s.description} for s in chain.cqa_specs},
         "summary": summary(study, values, chain),
+        "mass_balances": balance_table(chain, inputs),
         "sensitivities": study,
         "design_space": space,
         "verification": {
@@ -100,6 +104,9 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
             "cantera_net_production": cantera.net_production,
             "cantera_r1_amounts": cantera.r1_amounts,
             "cantera_r1_temperature": cantera.r1_temperature,
+            "cantera_reactors": {name: {"amounts": amounts, "temperature": temperature}
+                                 for name, (amounts, temperature) in cantera.reactors.items()},
+            "cantera_reactors_max_amounts": max(amounts for amounts, _ in cantera.reactors.values()),
             "r1_stiffness_ratio": stiffness_ratio(chain, cpps, inputs.physical),
         },
         "solver": chain.solver.as_dict(),

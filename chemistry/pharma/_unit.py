@@ -36,13 +36,17 @@ class Liquid(NamedTuple):
 
 class Solids(NamedTuple):
     """A cake or a dried product, masses [kg per m^3 of liquor]: `api`, `impurity`, `degradant`,
-    `other` (retained A, B, X) and `solvent`."""
+    `other` (retained reagents, intermediates, byproducts) and `solvent` (the solvent and the
+    antisolvent); `by_solvent`: `solvent` split by species, in the order of
+    `SpeciesRoles.solvents` (the solvent, then the antisolvent), shape (1,) or (2,), or None
+    where the unit that made it does not track the split."""
 
     api: Scalar
     impurity: Scalar
     degradant: Scalar
     other: Scalar
     solvent: Scalar
+    by_solvent: Vector | None = None
 
     @property
     def solids(self) -> Scalar:

@@ -46,9 +46,11 @@ CRYSTALS = {
 
 UNIT_PARAMETERS = {
     "plug_flow_reactor": {
-        "temperature": Parameter("K", "jacket temperature (the feed enters at it)"),
+        "temperature": Parameter("K", "jacket temperature (the liquid enters at the upstream stream's temperature; "
+                                 "the process feed at the first reactor's jacket temperature)"),
         "residence_time": Parameter("min", "residence time (the batch time of a fluid element)"),
-        "jacket_ua": Parameter("W/m^3/K", "U a: heat-transfer coefficient times jacket area per reactor volume"),
+        "jacket_ua": Parameter("W/m^3/K", "U a: heat-transfer coefficient times jacket area per m^3 of the reactor "
+                               "(a fluid element of inlet volume V_in exchanges U a V_in (T_jacket - T))"),
     },
     "batch_reactor": {
         "temperature": Parameter("K", "isothermal hold temperature"),

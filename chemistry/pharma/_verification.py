@@ -1,4 +1,4 @@
-"""Independent checks of the chain: the mechanism's rates and R1's trajectory against Cantera, R1's
+"""Independent checks of the chain: the mechanism's rates and every reactor against Cantera, R1's
 stiffness ratio, and R1 against SciPy's Radau at tight tolerance. Used by the tests and the report."""
 
 from typing import NamedTuple
@@ -13,17 +13,20 @@ from ._chain import PharmaChain
 from ._liquid import TEMPERATURE_SCALE, LiquidBatch
 from ._parameters import CPPs, PhysicalParameters
 from ._profiles import ConstantTemperature
+from ._unit_catalogue import UNIT_ROLES
 
 
 class CanteraCheck(NamedTuple):
     """Rates of progress and net production rates at random liquid states (max relative error),
-    and R1 (energy balance, jacket) against Cantera's `ConstPressureReactor` with a wall to a
-    reservoir at the jacket temperature: max relative difference of the outlet amounts and of T."""
+    and every reactor of the process against Cantera's own (`cantera_reactor`, fed with the
+    stream the chain gives it): `reactors`, reactor name -> (max relative difference of the
+    outlet amounts, of T); `r1_amounts` and `r1_temperature` are the first reactor's."""
 
     rates_of_progress: float
     net_production: float
     r1_amounts: float
     r1_temperature: float
+    reactors: dict
 
 
 def _r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
@@ -64,12 +67,14 @@ def r1_outlet(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters):
     return chain.r1(inputs)(chain.feed(inputs), r1, active.rates, chain.solver)
 
 
-def cantera_reactor(chain: PharmaChain, inputs, name: str, *, rtol=1e-11):
+def cantera_reactor(chain: PharmaChain, inputs, name: str, *, rtol=1e-11, result=None):
     """The reactor `name` of `chain`'s process integrated by Cantera's own reactor from the same
-    inlet (the feed, or the outlet of the unit before it): (amounts per m^3 of the first feed's
-    volume, T [K]) at its outlet. A plug-flow reactor is a `ConstPressureReactor` for its
-    residence time with a wall to a reservoir at the jacket temperature (energy on with the
-    energy balance), a batch reactor one at its temperature for its time, a CSTR one fed and
+    inlet (the feed, or the outlet of the unit before it in `result`, `chain.simulate(inputs)`
+    unless given): (amounts per m^3 of the first feed's volume, T [K]) at its outlet. A plug-flow
+    reactor is a `ConstPressureReactor` of the inlet's volume V_in for its residence time, the
+    liquid entering at the inlet's temperature, with a wall of area V_in (U = `jacket_ua`) to a
+    reservoir at the jacket temperature (energy on with the energy balance, else isothermal at
+    the jacket's), a batch reactor one at its temperature for its time, a CSTR one fed and
     emptied by two mass-flow controllers at rho V / tau, run for 60 residence times (its
     transients decay at least as e^-t/tau: Cantera's `advance_to_steady_state` stopped short of a
     residual of 1e-14)."""
@@ -78,20 +83,26 @@ def cantera_reactor(chain: PharmaChain, inputs, name: str, *, rtol=1e-11):
     names = [unit.name for unit in chain.process.units]
     kind = chain.process.units[names.index(name)].type
     position = names.index(name)
-    inlet = chain.feed(inputs) if position == 0 else chain.simulate(inputs).outlets[names[position - 1]]
+    if position == 0:
+        inlet = chain.feed(inputs)
+    else:
+        inlet = (chain.simulate(inputs) if result is None else result).outlets[names[position - 1]]
     amounts, parameters = np.asarray(inlet.amounts), chain.unit_parameters(inputs)[name]
     volume, temperature = float(amounts @ np.asarray(chain.mechanism.molar_volumes)), float(parameters["temperature"])
     process = chain.process
 
-    def solution():
+    def solution(at=temperature):
         liquid = cantera.Solution(process.mechanism, process.phase or "")
-        liquid.TPX = temperature, cantera.one_atm, amounts / amounts.sum()
+        liquid.TPX = at, cantera.one_atm, amounts / amounts.sum()
         return liquid
 
     # clone=False: in Cantera 3.2 a cloned ideal-condensed phase does not keep the state it was
     # given (its density and composition change), so each reactor gets its own Solution.
     energy = "on" if kind == "plug_flow_reactor" and chain.scene.has("energy_balance") else "off"
-    reactor = cantera.ConstPressureReactor(solution(), energy=energy, clone=False)
+    # With the energy balance the liquid enters at the inlet's temperature (the upstream outlet's)
+    # and the jacket heats or cools it; without, the reactor is isothermal at its own.
+    reactor = cantera.ConstPressureReactor(solution(float(inlet.temperature) if energy == "on" else temperature),
+                                           energy=energy, clone=False)
     reactor.volume = volume
     if kind == "plug_flow_reactor":
         cantera.Wall(cantera.Reservoir(solution(), clone=False), reactor, A=volume, U=float(parameters["jacket_ua"]))
@@ -125,11 +136,20 @@ def cantera_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, pat
     return cantera_reactor(chain, chain.inputs(cpps, physical=physical), chain.process.units[0].name, rtol=rtol)
 
 
+def cantera_reactors(chain: PharmaChain, inputs, *, rtol=1e-11) -> dict[str, tuple[float, float]]:
+    """Every reactor of `chain`'s process against Cantera's own, fed with the stream the chain
+    computes for it: reactor name -> (`outlet_differences`), in the process's order."""
+    result = chain.simulate(inputs)
+    return {unit.name: outlet_differences(result.outlets[unit.name],
+                                          *cantera_reactor(chain, inputs, unit.name, rtol=rtol, result=result))
+            for unit in chain.process.units if UNIT_ROLES[unit.type] == "reactor"}
+
+
 def cantera_check(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, path, *, n_states: int = 100) -> CanteraCheck:
-    """The mechanism and R1 against Cantera (`chain` should use tight tolerances)."""
+    """The mechanism and every reactor against Cantera (`chain` should use tight tolerances)."""
     rates = compare_rates(chain.mechanism, path, n_states=n_states, temperature=(270.0, 360.0))
-    differences = outlet_differences(r1_outlet(chain, cpps, physical), *cantera_r1(chain, cpps, physical, path))
-    return CanteraCheck(rates.rates_of_progress, rates.net_production, *differences)
+    reactors = cantera_reactors(chain, chain.inputs(cpps, physical=physical))
+    return CanteraCheck(rates.rates_of_progress, rates.net_production, *next(iter(reactors.values())), reactors)
 
 
 def scipy_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, rtol: float = 1e-12,
@@ -141,8 +161,10 @@ def scipy_r1(chain: PharmaChain, cpps: CPPs, physical: PhysicalParameters, *, rt
 
     inputs, active, r1 = _r1(chain, cpps, physical)
     unit = LiquidBatch(chain.active(inputs)[0], chain.scene.has("energy_balance"))
-    start = unit.start(chain.feed(inputs))
-    args = (active.rates, ConstantTemperature(r1["temperature"]), 60.0 * r1["residence_time"], r1["jacket_ua"])
+    feed = chain.feed(inputs)
+    start = unit.start(feed)
+    args = unit.arguments(feed, ConstantTemperature(r1["temperature"]), 60.0 * r1["residence_time"], active.rates,
+                          r1["jacket_ua"])
     rhs = jax.jit(lambda s, y: unit.rhs(s, y, args))
     jac = jax.jit(jax.jacfwd(lambda s, y: unit.rhs(s, y, args), argnums=1))
     solution = solve_ivp(lambda s, y: np.asarray(rhs(s, y)), (0.0, 1.0), np.asarray(start), method="Radau",
