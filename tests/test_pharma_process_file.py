@@ -6,6 +6,7 @@ bad files get one-line errors naming the file, the line and the field, before an
 import json
 import pathlib
 import sys
+from importlib.resources import files
 
 import numpy as np
 import pytest
@@ -108,3 +109,15 @@ def test_mutated_process_files_load_or_raise_input_error(tmp_path, data):
     chain = loads_or_input_error(lambda: PharmaChain(process=path))
     if chain is not None:
         assert len(chain.cpp_names) >= 1 and all(np.isfinite(chain.physical().values))
+
+
+def test_a_copied_shipped_process_file_finds_its_mechanism(tmp_path):
+    shipped = pathlib.Path(str(files("chemistry.pharma") / "processes" / "antisolvent_route.yaml"))
+    copy = tmp_path / "my_route.yaml"
+    copy.write_text(shipped.read_text())
+    spec = read_process_file(copy)
+    assert pathlib.Path(spec.mechanism) == (shipped.parent / "antisolvent_route" / "mechanism.yaml").resolve()
+    own = tmp_path / "antisolvent_route" / "mechanism.yaml"
+    own.parent.mkdir()
+    own.write_text((shipped.parent / "antisolvent_route" / "mechanism.yaml").read_text())
+    assert pathlib.Path(read_process_file(copy).mechanism) == own.resolve()

@@ -35,7 +35,7 @@ GROUP_SIZE = 32
 what grouping conditions sorted by T0 (alike step counts) saves."""
 GRADIENT_SAMPLE = 16
 """Reactors (evenly spaced through the sorted batch) whose gradients are timed, as one vmap: all
-256 gri30 reverse passes would take too long (docs/chemistry.md, Measurements behind the design),
+256 gri30 reverse passes would take too long (docs/dev/chemistry_notes.md, Measurements behind the design),
 and their memory (a checkpoint a step) grows with N."""
 SINGLE_CHECKS = 3
 """Reactors (the first, middle and last of the sorted batch) also solved one at a time."""
@@ -217,7 +217,7 @@ def benchmark_scaling(name: str, path, mechanism, case: IgnitionCase, sizes, end
     reactors, `batch_conditions`) and of Cantera run serially on the same N conditions, side by
     side: how batching amortises as N grows (on a GPU, until the device is full). Cantera runs
     the N reactors once per size (N solves already, which take a while at large N:
-    docs/chemistry.md, Measurements behind the design)."""
+    docs/dev/chemistry_notes.md, Measurements behind the design)."""
     rows = []
     for size in tqdm(sizes, desc=f"{name} batch scaling", unit="size", disable=not sizes):
         batch = batch_conditions(mechanism, case, size)

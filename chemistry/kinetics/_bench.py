@@ -34,11 +34,11 @@ RTOL, ATOL = 1e-10, 1e-14
 SENSITIVITY_TOLERANCE = 1e-6
 """Cantera's sensitivity rtol and atol: where its h2o2 sensitivities agree with its own bumps."""
 MAX_STEPS = 4000
-"""Per solve, well above what gri30 takes at these tolerances (docs/chemistry.md, Measurements
+"""Per solve, well above what gri30 takes at these tolerances (docs/dev/chemistry_notes.md, Measurements
 behind the design); also the reverse pass's checkpoints."""
 REFERENCE_RTOL = 1e-13
 """The converged reference's rtol (Rodas5, atol = rtol x 1e-4): h2o2's T barely moves from
-rtol 1e-12 to 1e-13 (docs/chemistry.md, Measurements behind the design)."""
+rtol 1e-12 to 1e-13 (docs/dev/chemistry_notes.md, Measurements behind the design)."""
 CANTERA_SENSITIVITY_REPEATS = {"h2o2": 3, "gri30": 1}  # gri30 with 325 sensitivities: seconds a run
 
 

@@ -25,10 +25,10 @@ _SENSITIVITY_SETTINGS = REACTOR_BDF_SOLVER.replace(rtol=1e-10, atol=1e-14)
 """The check's one reverse pass, through the BDF (`REACTOR_BDF_SOLVER`): here the trace and the
 compile are the wait, and the BDF's program is the smaller, quicker to compile and to run
 (`snapo bench kinetics`). Its d ln T / d ln A differ from Rodas5's far inside the check's 1e-3
-against Cantera (the measurement: docs/chemistry.md, Measurements behind the design)."""
+against Cantera (the measurement: docs/dev/chemistry_notes.md, Measurements behind the design)."""
 _exported_sensitivities = exported(temperature_sensitivities, name="kinetics-temperature-sensitivities")
 """The reverse pass, traced once and kept on disk (`snapo_ode.exported`): otherwise gri30's is
-traced and compiled again, at length, in every process (docs/chemistry.md, Measurements behind
+traced and compiled again, at length, in every process (docs/dev/chemistry_notes.md, Measurements behind
 the design)."""
 
 
@@ -104,7 +104,7 @@ def ignition_case(mechanism: Mechanism, path: str | Path, mixture: str | None, o
         return None
     if "sensitivity_time" not in overrides and overrides.keys() & {"temperature", "pressure"}:
         # The built-in case's time is late in its own induction; from another start the delay
-        # differs (from 2000 K, h2o2 ignites long before it: docs/chemistry.md, Measurements
+        # differs (from 2000 K, h2o2 ignites long before it: docs/dev/chemistry_notes.md, Measurements
         # behind the design), and after ignition every
         # d ln T / d ln A is ~0 (the equilibrium temperature does not depend on the rates), so
         # comparing them relatively compares noise. Take 0.9 x the delay instead.

@@ -121,7 +121,7 @@ _exported_ignition = exported(_ignition, name="kinetics-ignition")
 """Kept on disk traced (`snapo_ode.exported`) and run through `snapo_ode.call_checked`, whose
 runtime checks are NaN marks rather than host callbacks, so that the compilation cache keeps its
 executable: traced with callbacks it was compiled again in every process, a large share of a
-warm `snapo kinetics check h2o2.yaml` (docs/chemistry.md, Measurements behind the design)."""
+warm `snapo kinetics check h2o2.yaml` (docs/dev/chemistry_notes.md, Measurements behind the design)."""
 
 
 def trajectory_and_delay(reactor: Reactor, temperature, concentrations, times, settings: SolverSettings,

@@ -245,7 +245,7 @@ class Mechanism(eqx.Module):
 CLOSED_FORM_MIN_SPECIES = 20
 """From this many species on, concentration tangents of `net_production_rates` go through
 `concentration_jacobian`, which is the faster there (gri30); below, forward mode through the rate
-law is as fast or faster (h2o2, the 7-species pharma chain; the measurement: docs/chemistry.md,
+law is as fast or faster (h2o2, the 7-species pharma chain; the measurement: docs/dev/chemistry_notes.md,
 Measurements behind the design)."""
 
 

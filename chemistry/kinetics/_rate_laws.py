@@ -200,7 +200,7 @@ class Orders(eqx.Module):
         shape `(n_species, n_species)`: the net stoichiometry times a matrix that is non-zero only
         at the slots, as one scatter of r x q x w entries (q species changed by a reaction, w
         slots) rather than a dense n_species x r x n_species product or a scatter of whole
-        stoichiometry rows, both slower on gri30 (docs/chemistry.md, Measurements behind the
+        stoichiometry rows, both slower on gri30 (docs/dev/chemistry_notes.md, Measurements behind the
         design)."""
         jacobian = jnp.zeros((n_species + 1, n_species + 1), coefficients.dtype)
         jacobian = jacobian.at[changed_species[:, :, None], self.index[:, None, :]].add(

@@ -39,7 +39,7 @@ REACTOR_SOLVER = SolverSettings(atol=1e-11, solver=Rodas5(unroll_stages=True))
 """The reactors' default `snapo_ode.SolverSettings`: Rodas5 at rtol 1e-8 / atol 1e-11 on the
 scaled state [T / T0, N_k / N_total0], 20,000 steps at most. Rodas5 rather than
 Rodas4: on an h2o2 ignition it takes far fewer steps, runs faster and ends nearer the converged
-temperature (docs/chemistry.md, Measurements behind the design). Its stages unrolled
+temperature (docs/dev/chemistry_notes.md, Measurements behind the design). Its stages unrolled
 (`unroll_stages`): reactors run in sweeps and benchmarks against Cantera, where the run counts,
 and there the stage loop's reverse pass was the slower (the h2o2 gradient: docs/decisions.md,
 Rosenbrock stages in a loop)."""
@@ -51,7 +51,7 @@ that reuses its Jacobian and factorisation across steps (CVODES's design) instea
 an LU and 8 evaluations a step. At the kinetics benchmark's rtol 1e-10 / atol 1e-14
 (`snapo bench kinetics`) it runs h2o2 and gri30 ignitions faster than Rodas5, and their gradients
 (one reverse pass, the corrector differentiated implicitly) by a larger factor, within the
-tolerance's reach of the converged temperature but less close than Rodas5 (docs/chemistry.md,
+tolerance's reach of the converged temperature but less close than Rodas5 (docs/dev/chemistry_notes.md,
 Measurements behind the design): its error follows atol more than Rodas5's, so tighten atol with it. It saves at given
 times only (no dense output, so not for `ignition_delay`);
 `REACTOR_SOLVER` stays the default."""

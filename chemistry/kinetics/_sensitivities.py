@@ -61,7 +61,7 @@ def cantera_sensitivities(path: str | Path, case: IgnitionCase, time: float, *, 
 
     The default tolerances matter: with atol 1e-20 and sensitivity tolerances 1e-8 (tighter,
     one would think) Cantera's h2o2 sensitivities at 0.27 ms are far off central bumps of
-    Cantera's own solve; with these they agree with those bumps (docs/chemistry.md, Measurements
+    Cantera's own solve; with these they agree with those bumps (docs/dev/chemistry_notes.md, Measurements
     behind the design)."""
     import cantera
 

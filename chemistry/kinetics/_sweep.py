@@ -22,7 +22,7 @@ PRESSURES = (0.01 * ONE_ATM, 100.0 * ONE_ATM)
 
 # A file's top-level `phases:` block, up to the next top-level key: listing the phases this way
 # is quick, where parsing every file whole is slow (the large mechanisms, such as
-# n-hexane-NUIG-2015.yaml; docs/chemistry.md, Measurements behind the design).
+# n-hexane-NUIG-2015.yaml; docs/dev/chemistry_notes.md, Measurements behind the design).
 _PHASES_BLOCK = re.compile(r"^phases:[ \t]*\n(.*?)(?=^[A-Za-z_]|\Z)", re.S | re.M)
 
 

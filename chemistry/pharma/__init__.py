@@ -1,7 +1,6 @@
-"""chemistry.pharma: a process described in a file (`load_process`; the built-in is a 4-unit API
-chain: R1 synthesis, R2 hold, cooling crystallizer, filter-dryer) as Diffrax solves composed of
-units, its ICH Q8 sensitivities (every CQA to every CPP and to every kinetic and physical
-parameter), design space, trained temperature profiles and report. Public names load on first
+"""chemistry.pharma: any process described in a file (`load_process`; two are shipped, the
+built-in API chain and an antisolvent route) as Diffrax solves composed of units, its ICH Q8
+sensitivities (every CQA to every CPP and to every kinetic and physical parameter), design space, trained temperature profiles and report. Public names load on first
 use (see `snapo_ode.lazy_exports`)."""
 
 from snapo_ode import lazy_exports

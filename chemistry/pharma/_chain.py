@@ -63,7 +63,7 @@ CHAIN_SOLVER = SolverSettings(solver="rodas5", max_steps=4096)
 """The chain's default `SolverSettings`: Rodas5 for R1 and R2 (their Jacobians' largest
 eigenvalue is ~1e5-1e6 per unit duration; Rodas5 takes fewer steps than Rodas4 and gives the
 sensitivities faster at the same error, which the crystallizer and dryer's Tsit5 set:
-docs/pharma.md, Measurements behind the design), Tsit5 for the crystallizer and the dryer (below
+docs/dev/pharma_notes.md, Measurements behind the design), Tsit5 for the crystallizer and the dryer (below
 ~20 per unit duration at every PAR corner, tested), rtol 1e-8 / atol 1e-10 on the scaled states
 (concentrations [kmol/m^3], T / 300 K, moments scaled to O(1)), 4,096 steps per unit. Other
 methods by name: `chain_method`."""

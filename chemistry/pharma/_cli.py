@@ -190,8 +190,8 @@ def register_pharma(cli) -> None:
     """Add `snapo pharma sensitivities|train|design-space`, `snapo bench pharma`,
     `snapo report pharma`, the "gradients" study of `snapo bench accuracy`, the "pharma"
     workload of `snapo bench scaling` and two of `snapo bench first-result`."""
-    pharma = cli.group("pharma", "the 4-unit API chain: ICH Q8 sensitivities of the CQAs to the CPPs "
-                       "and to every kinetic and physical parameter")
+    pharma = cli.group("pharma", "a process (--process FILE; the built-in API chain by default): ICH Q8 "
+                       "sensitivities of the CQAs to the CPPs and to every kinetic and physical parameter")
     sens = cli.command("sensitivities", "the 5x4 dCQA/dCPP matrix and every parameter sensitivity, checked "
                        "against central differences and a tight-tolerance reference", group=pharma)
     add_chain_arguments(sens)

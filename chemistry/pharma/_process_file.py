@@ -200,6 +200,16 @@ def _roles(data, where) -> dict:
     return roles
 
 
+def _mechanism_path(name: str, directory: pathlib.Path) -> str:
+    """Where a process file's `mechanism.file` is: beside the process file, else beside the shipped
+    processes (so a copy of a shipped file still finds its mechanism), else `name` itself, for
+    Cantera's data path (`gri30.yaml`)."""
+    for folder in (directory, BUILT_IN_PROCESS.parent):
+        if (folder / name).is_file():
+            return str((folder / name).resolve())
+    return name
+
+
 def read_process_file(path) -> ProcessSpec:
     """The process file at `path`, converted and checked, without its mechanism (no Cantera).
 
@@ -239,9 +249,7 @@ def _process(raw, label: str, text: str | None, source: str, directory: pathlib.
               for name, entry in data.species.items() if entry.molar_mass is not None}
     effects = {equation: effect for effect, equations in data.mechanism.effects.items() for equation in equations}
     pair = data.feed.equilibrium
-    mechanism = data.mechanism.file
-    if (directory / mechanism).is_file():
-        mechanism = str((directory / mechanism).resolve())
+    mechanism = _mechanism_path(data.mechanism.file, directory)
     spec = ProcessSpec(data.name, data.description, source, mechanism, data.mechanism.phase, effects, roles, masses, feed,
                        None if pair is None else (pair.forward, pair.reverse), units, cpps, _cqas(data, roles, where),
                        tuple(data.uncertain))

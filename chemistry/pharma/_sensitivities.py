@@ -108,7 +108,7 @@ def jacobians_function(chain: PharmaChain, with_parameters: bool, mode: str, mes
     """As `jacobian_function`, for many points at once: a function of a sequence of inputs ->
     a list of (CQAs (5,), Jacobian (5, n)) as NumPy arrays. Every point is dispatched before
     any result is read, so that JAX runs one while Python dispatches the next (faster than
-    reading them one by one: docs/pharma.md, Measurements behind the design). With a samples `mesh`,
+    reading them one by one: docs/dev/pharma_notes.md, Measurements behind the design). With a samples `mesh`,
     the points go to this process's devices of it in turn; without, through the program on disk
     (`jacobian_function`). Not through `shard_map`: the reverse pass of equinox's checkpointed
     while loop refuses to run inside it ("Closure-converted function called with different

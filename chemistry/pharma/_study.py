@@ -41,7 +41,7 @@ def other_mode(mode: str) -> str:
     """The reference's mode for a study in `mode`: the other one, so that the reference also
     checks the study's derivative. For the default reverse study that is forward mode, which
     also traces in half the time of reverse mode through Kvaerno5's root finder (the critical
-    path of a cold `snapo pharma sensitivities` then) and runs in about the same (docs/pharma.md,
+    path of a cold `snapo pharma sensitivities` then) and runs in about the same (docs/dev/pharma_notes.md,
     Decisions and limits)."""
     return "forward" if mode == "reverse" else "reverse"
 
@@ -135,7 +135,7 @@ def solver_error_warnings(checks: dict, rtol: float, threshold: float = MAX_SOLV
 def _cqa_shape(n_cqas: int):
     """A stand-in of `cqa_function` with its output shape, (n_cqas,): `compare_with_bumps`, given
     the adjoint and the bumped functions, reads only that, through `equinox.filter_eval_shape`,
-    which on the chain itself would trace every unit's solve, in every process (docs/pharma.md,
+    which on the chain itself would trace every unit's solve, in every process (docs/dev/pharma_notes.md,
     Measurements behind the design)."""
     return lambda inputs: jnp.zeros(n_cqas)
 
@@ -167,7 +167,7 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, 
     pharma sensitivities`). A first one hands the reference to a helper process (`elsewhere`),
     started first, and traces the adjoint here meanwhile (tracing holds the interpreter lock: the
     three traces one after another were most of a cold run), then the bumps while the adjoint
-    compiles (a second helper for the bumps was slower). The figures: docs/pharma.md,
+    compiles (a second helper for the bumps was slower). The figures: docs/dev/pharma_notes.md,
     Measurements behind the design. The bumps' steps are built as
     `compare_with_bumps` builds them: the entry's key is their shape and dtype."""
     on_disk = reference is not None and prefetch_jacobian(chain.with_solver(reference), inputs, True,
@@ -181,7 +181,7 @@ def _prefetch(chain: PharmaChain, inputs: ChainInputs, mode: str, bumped_chain, 
 
 def _reference_jacobian(chain: PharmaChain, inputs: ChainInputs, reference, mode: str) -> Jacobian:
     """The named Jacobian at `reference`'s settings by the other mode: a check, run once and not
-    timed (a second run only to time it would be time lost: docs/pharma.md, Measurements behind
+    timed (a second run only to time it would be time lost: docs/dev/pharma_notes.md, Measurements behind
     the design)."""
     values, matrix = jacobian_function(chain.with_solver(reference), True, other_mode(mode), once=True)(inputs)
     return named_jacobian(chain, inputs, values, matrix, other_mode(mode))
@@ -199,7 +199,7 @@ def sensitivity_study(chain: PharmaChain, cpps: CPPs | ChainInputs, *, mode: str
     shares the cores with no other run (in a first process the reference's helper may still be
     compiling beside it, at a lower priority); the reference runs first when it was on disk
     (ready before the adjoint, whose executable takes the longest to read: running the reference
-    meanwhile hides part of that wait; docs/pharma.md, Measurements behind the design), else last
+    meanwhile hides part of that wait; docs/dev/pharma_notes.md, Measurements behind the design), else last
     (a helper process traces and compiles it)."""
     inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
     cpps, cpp_names, cqa_names = inputs.cpps, chain.cpp_names, chain.cqa_names

@@ -17,7 +17,6 @@ import pathlib
 import re
 import urllib.parse
 
-from mkdocs.exceptions import PluginError
 
 _TABLE_ROW = re.compile(r"^\s*\|")
 _LIST_ITEM = re.compile(r"^(?:[-*+]|\d+[.)])\s+\S")
@@ -148,4 +147,6 @@ def on_post_build(config):
     site = pathlib.Path(config.site_dir)
     problems = _PROBLEMS + link_problems(site) + notebook_problems(site, _NOTEBOOK_PAGES)
     if problems:
+        from mkdocs.exceptions import PluginError  # here, so the checks import without mkdocs (tests)
+
         raise PluginError("the built site has problems:\n  " + "\n  ".join(problems))

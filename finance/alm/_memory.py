@@ -18,7 +18,7 @@ def memory_estimate(layout: FactorLayout, horizon_months: int, n_paths: int = 0)
     and the Monte Carlo (shocks, and each month's per-path state kept for the reverse pass; the
     month being differentiated values every outstanding flow on every path: its zero rates, two
     discount factors and their cotangents, `VALUATION_ARRAYS` arrays of paths x run-off).
-    Calibrated against a measured peak (docs/alm.md, Measurements behind the design)."""
+    Calibrated against a measured peak (docs/dev/alm_notes.md, Measurements behind the design)."""
     run_off = max(layout.n_liability, MINIMUM_RUN_OFF_MONTHS)
     tenors, drivers = layout.n_tenors, 3 + layout.n_equities + 2
     grid = run_off * (3 * 71 + 2 * (horizon_months + 1) + tenors)

@@ -12,18 +12,18 @@ from ._model import ALMProblem, objective
 # docs/alm.md, Sensitivities), and vmaps small-path revaluations together.
 BUMP_ROWS_PER_CHUNK = 128
 # Tangents share the primal computation in forward mode, so vmapping them pays: a factor's
-# tangent in a vmapped chunk costs less than a forward evaluation (docs/alm.md, Measurements
+# tangent in a vmapped chunk costs less than a forward evaluation (docs/dev/alm_notes.md, Measurements
 # behind the design).
 FORWARD_ROWS_PER_CHUNK = 16384
 # Central differences on factors of order 1e-2 (rates, vols): a step of 1e-6 * max(|x|, 1)
 # keeps both truncation error and round-off small against the adjoint, where the
-# cube-root-of-epsilon default's larger step truncates visibly on the volatilities (docs/alm.md,
+# cube-root-of-epsilon default's larger step truncates visibly on the volatilities (docs/dev/alm_notes.md,
 # Measurements behind the design).
 BUMP_RELATIVE_STEP = 1e-6
 PATHS_PER_CHUNK = 500
 """Paths per pass of the objective on a device, one chunk after another when it divides the
 device's paths (`snapo_ode.sample_mean`): a chunk's working set stays in cache, so a reverse pass
-is faster than unchunked, on one device and on two (docs/alm.md, Measurements behind the
+is faster than unchunked, on one device and on two (docs/dev/alm_notes.md, Measurements behind the
 design)."""
 PATH_SPECS = (spec(), spec(), spec(None, SAMPLES))
 """How three arguments, the last the shocks (months, paths, drivers), split over a samples mesh:

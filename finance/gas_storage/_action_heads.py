@@ -102,6 +102,6 @@ def simulate_actions(policy: MLPPolicy, inputs: StorageInputs, scene: Scene, *, 
         return simulate_path(policy, inputs, scene, inputs.forward_curve, zeros, sharpness=sharpness)
     prices, factor = spot_prices(inputs, shocks)
     # Recomputing each day in the reverse pass beats storing every path's activations (a faster
-    # gradient: docs/gas_storage.md, Measurements behind the design).
+    # gradient: docs/dev/gas_storage_notes.md, Measurements behind the design).
     return jax.vmap(lambda p, f: simulate_path(policy, inputs, scene, p, f, sharpness=sharpness, remat=True))(
         prices, factor)

@@ -44,7 +44,7 @@ TARGET_OVERSHOOT = 0.1
 BAND_INIT = -9.0  # softplus(-9) = 1.2e-4: the band starts closed, as optimal without costs (Adam still opens it)
 PRICE_DEGREE = 3  # the targets' logits are cubic in the standardised spot/forward log-ratio
 # Up to this many paths the daily rollout's reverse pass is the closed form of an elementwise
-# recursion, the faster up to here; beyond it, the scan's own (docs/gas_storage.md, Measurements
+# recursion, the faster up to here; beyond it, the scan's own (docs/dev/gas_storage_notes.md, Measurements
 # behind the design).
 ELEMENTWISE_PATHS = 128
 
@@ -128,7 +128,7 @@ class BasestockPolicy(eqx.Module):
         if log_spot_ratio is None:
             return coefficients[:, :, 0] + start
         # Horner's rule, elementwise over (paths, T): faster than a batched contraction of the
-        # powers with the coefficients, gradient included (docs/gas_storage.md, Measurements
+        # powers with the coefficients, gradient included (docs/dev/gas_storage_notes.md, Measurements
         # behind the design).
         x = log_spot_ratio / scale
         logits = []
@@ -294,7 +294,7 @@ def simulate_basestock(policy: BasestockPolicy, inputs: StorageInputs, scene: Sc
     # changes in one vectorised pass (the net flow is exactly the change, smooth or hard). Each
     # path's inventory depends on its own alone, so on few paths the reverse pass is the closed
     # form of `rollout(elementwise=True)`; on many, the scan's own, recomputing each day rather
-    # than storing it (docs/gas_storage.md, Measurements behind the design).
+    # than storing it (docs/dev/gas_storage_notes.md, Measurements behind the design).
     elementwise = start.size <= ELEMENTWISE_PATHS
     inventory = jnp.moveaxis(rollout(step, start, inputs.n_days, per_step=(low_t, high_t, floor[1:]),
                                      elementwise=elementwise, remat=not elementwise), 0, -1)

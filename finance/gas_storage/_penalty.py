@@ -151,7 +151,7 @@ def _penalty_regression(predictable, features, target):
     on [predictable, features]: normal equations of unit-RMS columns with a ridge of 1e-10 (the
     columns differ in scale by orders of magnitude and can be collinear, e.g. on day 0 where
     every path has the same spot; JAX's SVD `lstsq` cost more than the rest of a day's work:
-    docs/gas_storage.md, Measurements behind the design). A feature
+    docs/dev/gas_storage_notes.md, Measurements behind the design). A feature
     that barely varies on these paths (std below 1e-8 of the largest, such as a far
     out-of-the-money call early on, whose payoff no fitting path sees) gets coefficient 0: fitted,
     its huge coefficient would make the penalty's sample mean on other paths heavy-tailed."""
