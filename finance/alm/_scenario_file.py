@@ -30,12 +30,16 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from snapo_ode import InputError, read_text
+from snapo_ode import DECIMAL, InputError, check_npz, check_parquet, read_text
+from snapo_ode._platform.reading import MAX_NUMBER_CHARS
 
 from ._market import MONTH, Market, interpolation_weights
 
 LONG_COLUMNS = ["scenario", "time", "variable", "value"]
 MAX_SCENARIO_BYTES = 2 * 2**30
+MAX_SCENARIO_VALUES = 2**27  # values (scenarios x times x variables) a file may declare: 1 GiB of float64
+INDEX_FACTOR = dict(cpi=1e3, equity=1e4)  # how far an index may move from its value at time 0, either way
+RATE_BOUND = 1.0  # inflation and spread within [-1, 1] per year
 _TENOR = re.compile(r"zero_rate_(\d+(\.\d*)?|\.\d+)$")
 
 
@@ -68,6 +72,7 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
     where = f"scenario file {path}"
     suffix = path.suffix.lower()
     if suffix == ".npz":
+        check_npz(path, where, MAX_SCENARIO_VALUES, ("values", "times", "variables"))
         try:
             with np.load(path, allow_pickle=False) as data:
                 missing = [name for name in ("values", "times", "variables") if name not in data]
@@ -88,9 +93,10 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
         if suffix == ".csv":
             # Blank lines kept (so a row's line is its index + 2) and dropped below; ids as text ("01" != "1").
             table = pd.read_csv(io.StringIO(read_text(path, "scenario", MAX_SCENARIO_BYTES)), skipinitialspace=True,
-                                dtype={"scenario": str, "variable": str}, skip_blank_lines=False)
+                                dtype=str, skip_blank_lines=False)
             table = table[~table.isna().all(axis=1)].copy()
         else:
+            check_parquet(path, where, MAX_SCENARIO_VALUES, MAX_SCENARIO_BYTES)
             table = pd.read_parquet(path)
     except InputError:
         raise
@@ -114,7 +120,16 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
         if empty.size:
             raise InputError(f"{_row(where, table, empty[0], line_offset)}: {column} is empty; every row names its {column}.")
     for column in ("time", "value"):
-        numbers = pd.to_numeric(table[column], errors="coerce")
+        cells = table[column]
+        if pd.api.types.is_bool_dtype(cells) or not pd.api.types.is_numeric_dtype(cells):
+            # Text (every CSV cell): a decimal number as CSV writes one, the rule of every user file.
+            text = cells.astype(str).str.strip()
+            bad = np.flatnonzero(~(text.str.fullmatch(DECIMAL.pattern).fillna(False).to_numpy(bool)
+                                   & (text.str.len() <= MAX_NUMBER_CHARS).to_numpy(bool)))
+            if bad.size:
+                raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {cells.iloc[bad[0]]!r}; "
+                                 "allowed: a decimal number (such as 0.25 or 1e-3).")
+        numbers = pd.to_numeric(cells, errors="coerce")
         bad = np.flatnonzero(~np.isfinite(numbers.to_numpy(float)))
         if bad.size:
             raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {table[column].iloc[bad[0]]!r}; "
@@ -161,6 +176,32 @@ def _monthly(values: np.ndarray, times: np.ndarray, horizon: int, where: str, lo
     return np.transpose(np.where(logarithmic, np.exp(filled), filled), (1, 0, 2))
 
 
+def _cell(where: str, values: np.ndarray, times: np.ndarray, name: str, bad: np.ndarray) -> str:
+    scenario, time = np.argwhere(bad)[0]
+    return f"{where}: {name} = {values[scenario, time]:g} in scenario {scenario + 1} (in the file's order), time {times[time]:g}"
+
+
+def _check_ranges(values: np.ndarray, times: np.ndarray, column: dict, equities: list[str], where: str) -> None:
+    """Refuse values that are finite but outside what the model can value: indices that are not
+    > 0 or that move more than `INDEX_FACTOR` from their value at time 0 (their ratios drive the
+    model), and inflation or spread outside [-RATE_BOUND, RATE_BOUND] per year."""
+    for name in [*equities, "cpi"]:
+        index = values[..., column[name]]
+        if np.any(index <= 0):
+            raise InputError(f"{_cell(where, values[..., column[name]], times, name, index <= 0)}; allowed: an index > 0.")
+        factor = INDEX_FACTOR["cpi" if name == "cpi" else "equity"]
+        ratio = index / index[:, :1]
+        far = (ratio > factor) | (ratio < 1 / factor)
+        if np.any(far):
+            raise InputError(f"{_cell(where, index, times, name, far)}, {ratio[far][0]:.3g} times its value at time 0; "
+                             f"allowed: within a factor of {factor:g} of it.")
+    for name in ("inflation", "spread"):
+        if name in column and np.any(np.abs(values[..., column[name]]) > RATE_BOUND):
+            rate = values[..., column[name]]
+            raise InputError(f"{_cell(where, rate, times, name, np.abs(rate) > RATE_BOUND)} per year; allowed: "
+                             f"[-{RATE_BOUND:g}, {RATE_BOUND:g}].")
+
+
 def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int, *, spread: float) -> ScenarioSet:
     """Read a scenario file (see the module docstring) for a fund with `market`'s key tenors and
     equity indices, over `horizon_months`; `spread`: the fund's own, where the file has none.
@@ -185,9 +226,7 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
     if not np.all(np.isfinite(values)):
         raise InputError(f"{where}: a value is not finite (NaN or infinite).")
     column = {name: i for i, name in enumerate(names)}
-    for name in [*equities, "cpi"]:
-        if np.any(values[..., column[name]] <= 0):
-            raise InputError(f"{where}: {name} = {values[..., column[name]].min():g}; allowed: an index > 0.")
+    _check_ranges(values, times, column, equities, where)
     order = sorted(tenors, key=tenors.get)
     for first, second in zip(order, order[1:]):
         if tenors[first] == tenors[second]:
