@@ -263,7 +263,7 @@ def test_every_numeric_option_is_range_checked_as_it_is_parsed(capsys):
                           (["bench", "gas-family", "--cases", "0"], "allowed >= 1"),
                           (["kinetics", "sweep", "--states", "0"], "allowed >= 1"),
                           (["pharma", "train", "--sharpness", "-1"], "allowed (0, inf]"),
-                          (["gas", "--stochastic", "--volatility", "nan"], "out of range"),
+                          (["gas", "--stochastic", "--volatility", "nan"], "'nan' is not a number"),
                           (["bench", "pharma", "--repeats", "x"], "'x' is not a whole number")):
         assert message in error_of(argv, capsys)
 
