@@ -128,7 +128,7 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
                                    & (text.str.len() <= MAX_NUMBER_CHARS).to_numpy(bool)))
             if bad.size:
                 raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {cells.iloc[bad[0]]!r}; "
-                                 "allowed: a decimal number (such as 0.25 or 1e-3).")
+                                 "allowed: a finite number, written in decimal (such as 0.25 or 1e-3).")
         numbers = pd.to_numeric(cells, errors="coerce")
         bad = np.flatnonzero(~np.isfinite(numbers.to_numpy(float)))
         if bad.size:
@@ -176,9 +176,11 @@ def _monthly(values: np.ndarray, times: np.ndarray, horizon: int, where: str, lo
     return np.transpose(np.where(logarithmic, np.exp(filled), filled), (1, 0, 2))
 
 
-def _cell(where: str, values: np.ndarray, times: np.ndarray, name: str, bad: np.ndarray) -> str:
+def _refuse(where: str, name: str, values: np.ndarray, times: np.ndarray, bad: np.ndarray, allowed: str):
+    """Raise `InputError` naming the first cell of `values` (scenarios, times) that is `bad`."""
     scenario, time = np.argwhere(bad)[0]
-    return f"{where}: {name} = {values[scenario, time]:g} in scenario {scenario + 1} (in the file's order), time {times[time]:g}"
+    raise InputError(f"{where}: {name} = {values[scenario, time]:g}; allowed: {allowed} (scenario {scenario + 1} in "
+                     f"the file's order, time {times[time]:g}).")
 
 
 def _check_ranges(values: np.ndarray, times: np.ndarray, column: dict, equities: list[str], where: str) -> None:
@@ -188,18 +190,17 @@ def _check_ranges(values: np.ndarray, times: np.ndarray, column: dict, equities:
     for name in [*equities, "cpi"]:
         index = values[..., column[name]]
         if np.any(index <= 0):
-            raise InputError(f"{_cell(where, values[..., column[name]], times, name, index <= 0)}; allowed: an index > 0.")
+            _refuse(where, name, index, times, index <= 0, "an index > 0")
         factor = INDEX_FACTOR["cpi" if name == "cpi" else "equity"]
         ratio = index / index[:, :1]
         far = (ratio > factor) | (ratio < 1 / factor)
         if np.any(far):
-            raise InputError(f"{_cell(where, index, times, name, far)}, {ratio[far][0]:.3g} times its value at time 0; "
-                             f"allowed: within a factor of {factor:g} of it.")
+            _refuse(where, name, index, times, far, f"within a factor of {factor:g} of the scenario's value at time 0 "
+                    f"({ratio[far][0]:.3g} times it here)")
     for name in ("inflation", "spread"):
-        if name in column and np.any(np.abs(values[..., column[name]]) > RATE_BOUND):
-            rate = values[..., column[name]]
-            raise InputError(f"{_cell(where, rate, times, name, np.abs(rate) > RATE_BOUND)} per year; allowed: "
-                             f"[-{RATE_BOUND:g}, {RATE_BOUND:g}].")
+        rate = values[..., column[name]] if name in column else np.zeros(1)
+        if np.any(np.abs(rate) > RATE_BOUND):
+            _refuse(where, name, rate, times, np.abs(rate) > RATE_BOUND, f"[-{RATE_BOUND:g}, {RATE_BOUND:g}] per year")
 
 
 def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int, *, spread: float) -> ScenarioSet:
