@@ -96,8 +96,11 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
                                 dtype=str, skip_blank_lines=False)
             table = table[~table.isna().all(axis=1)].copy()
         else:
+            import pyarrow.parquet
+
             check_parquet(path, where, MAX_SCENARIO_VALUES, MAX_SCENARIO_BYTES)
-            table = pd.read_parquet(path)
+            # The columns as stored: pandas' metadata (an index made of columns) is not applied.
+            table = pyarrow.parquet.read_table(path).to_pandas(ignore_metadata=True)
     except InputError:
         raise
     except Exception as error:  # pandas and pyarrow raise many types for a malformed file
