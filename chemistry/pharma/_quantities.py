@@ -70,7 +70,7 @@ def in_model_unit(value, model_unit: str, field: str) -> float:
         return number
     import pint
 
-    quantity = _unit(unit, field)
+    quantity = _unit(unit, f"{field} = {value!r}")
     try:
         if quantity.units == registry().Quantity(1.0, model_unit or "").units:
             return number  # the model's own unit: the number as written, not a product with 1.0
