@@ -251,3 +251,9 @@ def test_a_non_finite_result_after_a_computation_is_exit_3(capsys):
     assert ended(run) == EXIT_SOLVER_FAILED
     err = capsys.readouterr().err
     assert err == "snapo: error: the ALM objective is not finite (nan, smooth nan); check the inputs.\n"
+
+
+def test_an_npz_of_complex_values_is_refused_not_cast(tmp_path, market):
+    path = tmp_path / "complex.npz"
+    np.savez(path, values=np.ones((2, 5, 14), complex), times=np.arange(5) / 12, variables=np.array(["cpi"] * 14))
+    refused(lambda: load_scenarios(path, market, 4, spread=0.01), "the array 'values' holds complex128 values")

@@ -79,8 +79,15 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
                 if missing:
                     raise InputError(f"{where}: no array {missing[0]!r}; an NPZ scenario file holds 'values' "
                                      "(scenarios x times x variables), 'times' and 'variables'.")
-                values, times = np.asarray(data["values"], float), np.asarray(data["times"], float)
+                arrays = {name: data[name] for name in ("values", "times")}
+                for name, array in arrays.items():
+                    if array.dtype.kind not in "fiu":
+                        raise InputError(f"{where}: the array {name!r} holds {array.dtype} values; allowed: real "
+                                         "numbers (float or integer).")
+                values, times = np.asarray(arrays["values"], float), np.asarray(arrays["times"], float)
                 names = [str(v) for v in np.atleast_1d(data["variables"])]
+        except InputError:
+            raise
         except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile) as error:
             raise InputError(f"{where}: not a readable NPZ scenario file ({type(error).__name__}: {error}).") from None
         if values.ndim != 3 or times.ndim != 1 or values.shape[1:] != (times.size, len(names)):
