@@ -128,10 +128,10 @@ def test_a_recursive_alias_never_reaches_cantera(tmp_path, capsys):
     mechanism = tmp_path / "mechanism.yaml"
     mechanism.write_text(RECURSIVE + (MECHANISMS / "pharma.yaml").read_text())
     err = error_of(["kinetics", "check", str(mechanism), "--out", str(tmp_path / "k")], capsys)
-    assert f"mechanism file {mechanism}, line 1: a YAML alias (*r)" in err
+    assert f"mechanism file {mechanism}, line 1: the YAML alias *r lies inside the node it names" in err
     process = tmp_path / "process.yaml"
     process.write_text(_process_text().replace(f"file: {(MECHANISMS / 'pharma.yaml').resolve()}", f"file: {mechanism}"))
-    refused(lambda: molar_masses(read_process_file(process)), "a YAML alias (*r)")
+    refused(lambda: molar_masses(read_process_file(process)), "the YAML alias *r lies inside the node it names")
 
 
 def test_an_aliased_string_is_refused_not_expanded(tmp_path):
@@ -139,7 +139,8 @@ def test_an_aliased_string_is_refused_not_expanded(tmp_path):
     text = f"big: &s '{'x' * 99_000}'\nmany: [{', '.join(['*s'] * 30_000)}]\n"
     mechanism = tmp_path / "mechanism.yaml"
     mechanism.write_text(text + (MECHANISMS / "pharma.yaml").read_text())
-    refused(lambda: snapo_ode.check_cantera_yaml(mechanism.read_text(), "mechanism"), "line 2: a YAML alias (*s)")
+    refused(lambda: snapo_ode.check_cantera_yaml(mechanism.read_text(), "mechanism"), "line 2: its YAML aliases (*name) "
+            "expand it past 10 times its own size")
     path = fund_file(tmp_path, "currency: EUR\n", "currency: EUR\n" + text)
     refused(lambda: alm.load_fund(path), "a YAML alias (*s)")
 
