@@ -58,6 +58,7 @@ _INTEGER = re.compile(r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+")
 _FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
 _INFINITY = re.compile(r"([-+]?)\.(inf|Inf|INF)")
 _NAN = re.compile(r"\.(nan|NaN|NAN)")
+_SURROGATE = re.compile("[\ud800-\udfff]")
 DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
 """A decimal number as JSON and CSV write one: no `_` separators, no `nan`, `inf` or hex."""
 
@@ -139,9 +140,13 @@ def _events(text: str, where: str, aliases: bool = False):
                     raise InputError(f"{line}: nested more than {MAX_DEPTH} levels deep; allowed: at most {MAX_DEPTH}.")
             elif isinstance(event, CollectionEndEvent):
                 depth -= 1
-            elif isinstance(event, ScalarEvent) and len(event.value) > MAX_SCALAR_CHARS:
-                raise InputError(f"{line}: a value of {len(event.value):,} characters; allowed: at most "
-                                 f"{MAX_SCALAR_CHARS:,}.")
+            elif isinstance(event, ScalarEvent):
+                if len(event.value) > MAX_SCALAR_CHARS:
+                    raise InputError(f"{line}: a value of {len(event.value):,} characters; allowed: at most "
+                                     f"{MAX_SCALAR_CHARS:,}.")
+                if _SURROGATE.search(event.value):
+                    raise InputError(f"{line}: an escape of half a UTF-16 pair (\\ud800-\\udfff) in "
+                                     f"{_shown(event.value)}; write the character itself.")
             yield event, line
     except YAMLError as error:
         mark = getattr(error, "problem_mark", None)
