@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from snapo_ode import InputError, line_of, read_text, strict_yaml, validate
+from snapo_ode import MAX_YAML_BYTES, InputError, line_of, read_text, strict_yaml, validate
 
 from ._board import BoardSettings
 from ._factors import DEFAULT_MIX, check_market_ranges, holdings_at_funding_ratio, units_held
@@ -87,6 +87,9 @@ def _market(section: MarketSection, assets: AssetsSection, file: _Locator) -> Ma
         _keys(file, "assets.weight_bounds", assets.weight_bounds, names)
         bounds = dict(weight_low=tuple(assets.weight_bounds[a][0] for a in names),
                       weight_high=tuple(assets.weight_bounds[a][1] for a in names))
+    if section.correlation is not None and len({len(row) for row in section.correlation}) > 1:
+        raise InputError(f"{file.at('correlation')}: market.correlation has rows of "
+                         f"{sorted({len(row) for row in section.correlation})} entries; every row has one per risk driver.")
     try:
         return Market(np.asarray(section.key_tenors, float), len(section.equities),
                       correlation=None if section.correlation is None else np.asarray(section.correlation, float),
@@ -146,7 +149,7 @@ def load_fund(path: str | os.PathLike) -> Fund:
     allowed, before anything is compiled."""
     path = pathlib.Path(path)
     where = f"fund file {path}"
-    text = read_text(path, "fund")
+    text = read_text(path, "fund", MAX_YAML_BYTES)
     spec = validate(FundFile, strict_yaml(text, where), where, text)
     file = _Locator(where, text)
     market = _market(spec.market, spec.assets, file)
