@@ -84,7 +84,7 @@ def load_paths(path: str | os.PathLike, forward_curve, *, factor_count: int | No
     bad = np.argwhere(~np.isfinite(spot) | (spot <= 0))
     if bad.size:
         p, d = bad[0]
-        raise InputError(f"{where}: spot[{p}, {d}] = {spot[p, d]!r}; allowed: a finite price > 0.")
+        raise InputError(f"{where}: spot[{p}, {d}] = {float(spot[p, d])!r}; allowed: a finite price > 0.")
     if factors is not None:
         if factors.ndim != 3 or factors.shape[:2] != spot.shape:
             raise InputError(f"{where}: factors has shape {factors.shape}; expected ({spot.shape[0]} paths, "
