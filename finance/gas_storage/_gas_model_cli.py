@@ -21,9 +21,9 @@ def run_gas_on_model(args) -> int:
     args.stochastic = True
     inputs, settings = study_from_args(args)
     training, evaluation = _paths_files(args, inputs, factor_count=len(model.factor_names))
-    for name, given in (("--train-paths-file", training), ("--value-paths-file", evaluation)):
+    for file, given in ((args.train_paths_file, training), (args.value_paths_file, evaluation)):
         if given is not None and given.factors is None:
-            raise InputError(f"{name}: the file gives no factors; the {type(model).__name__} reads its state "
+            raise InputError(f"paths file {file}: the file gives no factors; the {type(model).__name__} reads its state "
                              f"({', '.join(model.factor_names)}): add 'factors' (paths x days x "
                              f"{len(model.factor_names)}).")
     key = jax.random.key(settings.seed)
