@@ -112,12 +112,18 @@ def run_gas(args) -> int:
     from ._study import run_study
     from ._versus_lsmc import compare_with_lsmc
 
+    from ._path_files import paths_of_args
+
     if args.price_model is not None:
         from ._gas_model_cli import run_gas_on_model
 
-        return run_gas_on_model(args)
+        if args.volatility is not None or args.mean_reversion is not None:
+            raise InputError("--volatility and --mean-reversion set the built-in one-factor model; with "
+                             "--price-model the model file gives the parameters.")
+        args.stochastic = True
+        return run_gas_on_model(args, *study_from_args(args))
     inputs, settings = study_from_args(args)
-    training, evaluation = _paths_files(args, inputs)
+    training, evaluation = paths_of_args(args, inputs)
     if (training is not None or evaluation is not None) and not settings.stochastic:
         raise InputError("--train-paths-file and --value-paths-file are spot paths: add --stochastic (or give "
                          "--price-model).")
@@ -131,13 +137,6 @@ def run_gas(args) -> int:
     result = run_study(inputs, settings, training_paths=training, evaluation_paths=evaluation)
     return _write(result, result.policy, args.json)
 
-
-def _paths_files(args, inputs, factor_count=None):
-    """The --train-paths-file and --value-paths-file paths (or None), read and checked before any compile."""
-    from ._path_files import load_paths
-
-    return tuple(None if file is None else load_paths(file, inputs.forward_curve, factor_count=factor_count)
-                 for file in (args.train_paths_file, args.value_paths_file))
 
 
 def run_demo(args) -> int:

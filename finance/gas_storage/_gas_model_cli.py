@@ -8,19 +8,16 @@ import jax
 from snapo_ode import InputError, atomic_write_json
 
 
-def run_gas_on_model(args) -> int:
-    from ._cli import _paths_files, study_from_args
+def run_gas_on_model(args, inputs, settings) -> int:
+    """`args`' price model and paths files on the contract `inputs`, with the study's `settings`
+    (paths, seed, progress); everything is read and checked before any compile."""
     from ._model_study import value_on_model
+    from ._path_files import paths_of_args
     from ._price_model_file import load_price_model
     from ._price_models import model_paths
 
     model = load_price_model(args.price_model)
-    if args.volatility is not None or args.mean_reversion is not None:
-        raise InputError("--volatility and --mean-reversion set the built-in one-factor model; with --price-model "
-                         "the model file gives the parameters.")
-    args.stochastic = True
-    inputs, settings = study_from_args(args)
-    training, evaluation = _paths_files(args, inputs, factor_count=len(model.factor_names))
+    training, evaluation = paths_of_args(args, inputs, factor_count=len(model.factor_names))
     for file, given in ((args.train_paths_file, training), (args.value_paths_file, evaluation)):
         if given is not None and given.factors is None:
             raise InputError(f"paths file {file}: the file gives no factors; the {type(model).__name__} reads its state "

@@ -116,3 +116,10 @@ def save_paths(path: str | os.PathLike, forward_curve, paths: PricePaths) -> pat
         columns[f"factor_{index}"] = factors[:, :, index].ravel()
     pd.DataFrame(columns).to_parquet(path, index=False)
     return path
+
+
+def paths_of_args(args, inputs, factor_count: int | None = None) -> tuple[PricePaths | None, PricePaths | None]:
+    """The paths of `--train-paths-file` and `--value-paths-file` (None where not given), read and
+    checked before any compile."""
+    return tuple(None if file is None else load_paths(file, inputs.forward_curve, factor_count=factor_count)
+                 for file in (args.train_paths_file, args.value_paths_file))
