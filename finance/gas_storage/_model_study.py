@@ -72,29 +72,34 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     policy = make_state_policy(fit, grid, training, key=jax.random.key(seed))
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
 
+    start = time.perf_counter()
+    # The start's targets depend on the paths alone: computed once for every training and evaluation path.
+    train_start = eqx.filter_jit(policy.start_logits)(inputs, scene, training)
+    eval_start = eqx.filter_jit(policy.start_logits)(inputs, scene, evaluation)
+
     def loss(policy, step_key):
         rows = jax.random.randint(step_key, (settings["train_paths"],), 0, training.shape[0])
-        value = jnp.mean(simulate_state_policy(policy, inputs, scene, training[rows],
-                                               sharpness=settings["sharpness"]).value)
+        value = jnp.mean(simulate_state_policy(policy, inputs, scene, training[rows], sharpness=settings["sharpness"],
+                                               start=train_start[rows]).value)
         return -value / scale, {"value": value}
 
-    start = time.perf_counter()
-    start_schedule = simulate_state_policy(policy, inputs, scene, evaluation, sharpness=None)
+    start_schedule = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None,
+                                                           start=eval_start)
     trained = snapo_ode.train(loss, policy, steps=settings["train_steps"], learning_rate=settings["learning_rate"],
                               key=jax.random.fold_in(jax.random.key(seed), 1), progress=progress,
                               description="training storage policy (price model)")
     policy = trained.params
-    snapo = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None)
+    snapo = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None, start=eval_start)
 
     @eqx.filter_jit
-    def smooth_value_and_deltas(policy, inputs):
+    def smooth_value_and_deltas(policy, inputs, eval_start):
         def value(curve):
             moved = eqx.tree_at(lambda i: i.forward_curve, inputs, curve)
-            return jnp.mean(simulate_state_policy(policy, moved, scene, evaluation,
-                                                  sharpness=settings["sharpness"]).value)
+            return jnp.mean(simulate_state_policy(policy, moved, scene, evaluation, sharpness=settings["sharpness"],
+                                                  start=eval_start).value)
         return jax.value_and_grad(value)(inputs.forward_curve)
 
-    snapo_smooth, snapo_deltas = smooth_value_and_deltas(policy, inputs)
+    snapo_smooth, snapo_deltas = smooth_value_and_deltas(policy, inputs, eval_start)
     snapo_seconds = time.perf_counter() - start
     policies = {"snapo": snapo, "lsmc": lsmc, "intrinsic": intrinsic_schedule(inputs, scene, intrinsic, eval_prices)}
     out = {

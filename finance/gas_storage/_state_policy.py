@@ -88,9 +88,14 @@ class StatePolicy(eqx.Module):
     spacing: float = eqx.field(static=True)
     harmonics: int = eqx.field(static=True, default=STATE_HARMONICS)
 
-    def logits(self, inputs: StorageInputs, scene: Scene, paths: PricePaths) -> jax.Array:
-        """Target logits (mid-point, band), shape (paths, T, 2): the LSMC start plus the correction."""
-        start = lsmc_start_logits(self.fit, inputs, scene, self.levels, self.spacing, paths)
+    def start_logits(self, inputs: StorageInputs, scene: Scene, paths: PricePaths) -> jax.Array:
+        """The start's logits on `paths`, shape (paths, T, 2) (`lsmc_start_logits`)."""
+        return lsmc_start_logits(self.fit, inputs, scene, self.levels, self.spacing, paths)
+
+    def logits(self, inputs: StorageInputs, scene: Scene, paths: PricePaths, start=None) -> jax.Array:
+        """Target logits (mid-point, band), shape (paths, T, 2): the LSMC start (`start`, where the
+        caller computed it once for these paths) plus the correction."""
+        start = self.start_logits(inputs, scene, paths) if start is None else jax.lax.stop_gradient(start)
         basis = jax.lax.stop_gradient(self.basis)(jax.lax.stop_gradient(paths.state()))  # (paths, T, B)
         calendar = calendar_features(inputs.n_days, self.harmonics).astype(basis.dtype)
         coefficients = jax.vmap(self.mlp)(calendar).reshape(inputs.n_days, 2, -1)  # (T, 2, B)
@@ -111,10 +116,11 @@ def make_state_policy(fit: StateLSMCFit, grid: InventoryGrid, paths: PricePaths,
 
 
 def simulate_state_policy(policy: StatePolicy, inputs: StorageInputs, scene: Scene, paths: PricePaths, *,
-                          sharpness: float | None) -> Schedule:
-    """The policy on `paths`, smooth (`sharpness`) or hard (None), as `simulate` does."""
+                          sharpness: float | None, start=None) -> Schedule:
+    """The policy on `paths`, smooth (`sharpness`) or hard (None), as `simulate` does; `start`:
+    `policy.start_logits` on these paths where already computed (they depend on the paths alone)."""
     floor, ceiling = inventory_bounds(inputs, scene, sharpness)
-    low, high = targets_of_logits(policy.logits(inputs, scene, paths), floor, ceiling)
+    low, high = targets_of_logits(policy.logits(inputs, scene, paths, start), floor, ceiling)
     prices = spot_prices(inputs, paths)[0]
     start = jnp.broadcast_to(inputs.initial_inventory, prices.shape[:1])
     return follow_targets(inputs, scene, low.T, high.T, prices, start, floor, sharpness)
