@@ -165,7 +165,7 @@ def test_yaml_aliases_are_refused_before_cantera_reads_the_file(tmp_path, capsys
     laughs.write_text("\n".join(lines) + "\nphases:\n- name: gas\n  thermo: ideal-gas\n  species: [gri30.yaml/species: "
                       "[H2, O2]]\n  kinetics: gas\n  reactions: none\n")
     err = error_of(["kinetics", "check", str(laughs), "--out", str(tmp_path / "k")], capsys)
-    assert f"mechanism file {laughs}, line 2: a YAML alias (*a); write the value out instead" in err
+    assert f"mechanism file {laughs}, line " in err and "its YAML aliases (*name) expand it past 10 times its own size" in err
 
 
 def test_outputs_write_through_links_and_into_streams(tmp_path, capsys):

@@ -42,8 +42,9 @@ def load(path: Path) -> Source:
     """The `Source` of the YAML file at `path`.
 
     **Raises:** `InputError` for a missing or oversized file, invalid YAML or non-UTF-8 text, a
-    YAML alias, a bound of `snapo_ode.check_cantera_yaml` passed (the file is checked by it before
-    Cantera reads it), or a document that is not a mapping."""
+    bound of `snapo_ode.check_cantera_yaml` passed (aliases that never end or expand the file past
+    10 times its size, deep nesting, huge values: the file is checked by it before Cantera reads
+    it), or a document that is not a mapping."""
     if not path.is_file():
         raise InputError(f"mechanism path {str(path)!r} is not a file.")
     text = read_text(path, "mechanism")

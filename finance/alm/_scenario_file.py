@@ -79,8 +79,15 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
                 if missing:
                     raise InputError(f"{where}: no array {missing[0]!r}; an NPZ scenario file holds 'values' "
                                      "(scenarios x times x variables), 'times' and 'variables'.")
-                values, times = np.asarray(data["values"], float), np.asarray(data["times"], float)
+                arrays = {name: data[name] for name in ("values", "times")}
+                for name, array in arrays.items():
+                    if array.dtype.kind not in "fiu":
+                        raise InputError(f"{where}: the array {name!r} holds {array.dtype} values; allowed: real "
+                                         "numbers (float or integer).")
+                values, times = np.asarray(arrays["values"], float), np.asarray(arrays["times"], float)
                 names = [str(v) for v in np.atleast_1d(data["variables"])]
+        except InputError:
+            raise
         except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile) as error:
             raise InputError(f"{where}: not a readable NPZ scenario file ({type(error).__name__}: {error}).") from None
         if values.ndim != 3 or times.ndim != 1 or values.shape[1:] != (times.size, len(names)):
@@ -96,8 +103,11 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
                                 dtype=str, skip_blank_lines=False)
             table = table[~table.isna().all(axis=1)].copy()
         else:
+            import pyarrow.parquet
+
             check_parquet(path, where, MAX_SCENARIO_VALUES, MAX_SCENARIO_BYTES)
-            table = pd.read_parquet(path)
+            # The columns as stored: pandas' metadata (an index made of columns) is not applied.
+            table = pyarrow.parquet.read_table(path).to_pandas(ignore_metadata=True)
     except InputError:
         raise
     except Exception as error:  # pandas and pyarrow raise many types for a malformed file
@@ -192,7 +202,8 @@ def _check_ranges(values: np.ndarray, times: np.ndarray, column: dict, equities:
         if np.any(index <= 0):
             _refuse(where, name, index, times, index <= 0, "an index > 0")
         factor = INDEX_FACTOR["cpi" if name == "cpi" else "equity"]
-        ratio = index / index[:, :1]
+        with np.errstate(over="ignore"):  # an infinite ratio is refused below like any far one
+            ratio = index / index[:, :1]
         far = (ratio > factor) | (ratio < 1 / factor)
         if np.any(far):
             _refuse(where, name, index, times, far, f"within a factor of {factor:g} of the scenario's value at time 0 "

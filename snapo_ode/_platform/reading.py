@@ -25,9 +25,12 @@ The same number rule everywhere: `number_text` (a CSV cell, a JSON number) accep
 as JSON and CSV write them; YAML adds only its core schema's `0x`/`0o` integers and `.inf`/`.nan`
 (which every schema then refuses as not finite).
 
-Cantera's YAML (`check_cantera_yaml`): read through the same events before Cantera sees it:
-aliases refused (Cantera expands them, recursively into a crash for `&r [1, *r]`), the same bounds
-on depth, nodes and scalars, so that Cantera is only handed a file that cannot blow up.
+Cantera's YAML (`check_cantera_yaml`): read through the same events before Cantera sees it, with
+the same bounds on depth, nodes and scalars. Cantera expands aliases itself, so a mechanism's
+aliases (a shared rate table, `&high {A: ...}` then `*high`) are counted in bytes as Cantera would
+expand them, and the file is refused past `EXPANSION_LIMIT` times its own size (plus
+`EXPANSION_SLACK`), or for an alias inside the node it names (`&r [1, *r]`, which Cantera expands
+without end, into a crash) or naming no anchor.
 
 Archives and tables (`check_npz`, `check_parquet`): the sizes are read from the zip directory
 and each array's header, or the Parquet footer, and refused past a bound before anything is
@@ -45,6 +48,8 @@ MAX_DEPTH = 64  # nesting of mappings and sequences
 MAX_NODES = 2_000_000  # scalars and collections in one YAML file (a large Cantera mechanism: ~3e5)
 MAX_SCALAR_CHARS = 100_000  # the longest string a YAML file may hold
 MAX_NUMBER_CHARS = 100  # the longest text of a number (an integer: at most 100 digits)
+EXPANSION_LIMIT = 10  # a mechanism's aliases may expand it to 10 times its bytes (+ EXPANSION_SLACK)
+EXPANSION_SLACK = 2**20
 
 _CORE = "tag:yaml.org,2002:"
 _NULL = re.compile(r"null|Null|NULL|~|")
@@ -53,6 +58,7 @@ _INTEGER = re.compile(r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+")
 _FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
 _INFINITY = re.compile(r"([-+]?)\.(inf|Inf|INF)")
 _NAN = re.compile(r"\.(nan|NaN|NAN)")
+_SURROGATE = re.compile("[\ud800-\udfff]")
 DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
 """A decimal number as JSON and CSV write one: no `_` separators, no `nan`, `inf` or hex."""
 
@@ -109,9 +115,10 @@ def _tag_name(tag: str) -> str:
     return "!!" + tag.removeprefix(_CORE) if tag.startswith(_CORE) else tag
 
 
-def _events(text: str, where: str):
+def _events(text: str, where: str, aliases: bool = False):
     """The parser's events of `text`, bounded (see the module docstring): a generator that raises
-    `InputError` (file, line) at the first event past a bound, an alias or a parse error."""
+    `InputError` (file, line) at the first event past a bound, a parse error, or an alias unless
+    `aliases` (then the caller bounds them)."""
     from ruamel.yaml import YAML, YAMLError
     from ruamel.yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
@@ -120,7 +127,7 @@ def _events(text: str, where: str):
     try:
         for event in events:
             line = f"{where}, line {event.start_mark.line + 1}"
-            if isinstance(event, AliasEvent):
+            if isinstance(event, AliasEvent) and not aliases:
                 raise InputError(f"{line}: a YAML alias (*{event.anchor}); write the value out instead (aliases are "
                                  "not expanded).")
             if isinstance(event, (ScalarEvent, CollectionStartEvent)):
@@ -133,9 +140,13 @@ def _events(text: str, where: str):
                     raise InputError(f"{line}: nested more than {MAX_DEPTH} levels deep; allowed: at most {MAX_DEPTH}.")
             elif isinstance(event, CollectionEndEvent):
                 depth -= 1
-            elif isinstance(event, ScalarEvent) and len(event.value) > MAX_SCALAR_CHARS:
-                raise InputError(f"{line}: a value of {len(event.value):,} characters; allowed: at most "
-                                 f"{MAX_SCALAR_CHARS:,}.")
+            elif isinstance(event, ScalarEvent):
+                if len(event.value) > MAX_SCALAR_CHARS:
+                    raise InputError(f"{line}: a value of {len(event.value):,} characters; allowed: at most "
+                                     f"{MAX_SCALAR_CHARS:,}.")
+                if _SURROGATE.search(event.value):
+                    raise InputError(f"{line}: an escape of half a UTF-16 pair (\\ud800-\\udfff) in "
+                                     f"{_shown(event.value)}; write the character itself.")
             yield event, line
     except YAMLError as error:
         mark = getattr(error, "problem_mark", None)
@@ -145,15 +156,41 @@ def _events(text: str, where: str):
 
 
 def check_cantera_yaml(text: str, where: str) -> None:
-    """Raise `InputError` (file, line) unless `text` is YAML that Cantera can be handed: no
-    aliases, nesting, node count and scalar lengths within the bounds (module docstring). Tags
-    and scalars are left to Cantera's own reader."""
-    from ruamel.yaml.events import ScalarEvent
+    """Raise `InputError` (file, line) unless `text` is YAML that Cantera can be handed: nesting,
+    node count, scalar and number lengths within the bounds, aliases acyclic and their expansion
+    bounded in bytes (module docstring). Tags and scalars are left to Cantera's own reader."""
+    from ruamel.yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
-    for event, line in _events(text, where):
-        if isinstance(event, ScalarEvent) and event.style is None and (_INTEGER.fullmatch(event.value)
-                                                                       or _FLOAT.fullmatch(event.value)):
-            _number(event.value, line)
+    limit = EXPANSION_LIMIT * len(text.encode()) + EXPANSION_SLACK
+    anchored: dict[str, int] = {}  # anchor -> the bytes its node expands to
+    open_nodes = [[None, 0]]  # [anchor, bytes so far] of each collection being read
+    total = 0
+    for event, line in _events(text, where, aliases=True):
+        if isinstance(event, CollectionStartEvent):
+            open_nodes.append([event.anchor, 2])
+            continue
+        if isinstance(event, AliasEvent):
+            if any(anchor == event.anchor for anchor, _ in open_nodes):
+                raise InputError(f"{line}: the YAML alias *{event.anchor} lies inside the node it names, so it never "
+                                 "ends; write the value out.")
+            if event.anchor not in anchored:
+                raise InputError(f"{line}: the YAML alias *{event.anchor} names no anchor before it.")
+            size, anchor = anchored[event.anchor], None
+        elif isinstance(event, ScalarEvent):
+            if event.style is None and (_INTEGER.fullmatch(event.value) or _FLOAT.fullmatch(event.value)):
+                _number(event.value, line)
+            size, anchor = len(event.value) + 2, event.anchor
+        elif isinstance(event, CollectionEndEvent):
+            anchor, size = open_nodes.pop()
+        else:
+            continue
+        if anchor is not None:
+            anchored[anchor] = size
+        open_nodes[-1][1] += size
+        total += size if isinstance(event, AliasEvent) else 0
+        if total > limit:
+            raise InputError(f"{line}: its YAML aliases (*name) expand it past {EXPANSION_LIMIT} times its own size "
+                             "(Cantera would expand them all in memory); write the aliased content out in full.")
 
 
 def read_yaml(text: str, where: str):
