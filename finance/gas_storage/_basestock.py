@@ -253,9 +253,14 @@ def basestock_targets(policy: BasestockPolicy, inputs: StorageInputs, scene: Sce
     then run once per simulation)."""
     if floor is None or ceiling is None:
         floor, ceiling = inventory_bounds(inputs, scene, sharpness)
-    floor, ceiling = floor[1:], ceiling[1:]
     calendar = calendar_features(inputs.n_days, policy.harmonics)
-    logits = policy.logits(calendar, jnp.log(inputs.forward_curve), log_spot_ratio)
+    return targets_of_logits(policy.logits(calendar, jnp.log(inputs.forward_curve), log_spot_ratio), floor, ceiling)
+
+
+def targets_of_logits(logits: jax.Array, floor: jax.Array, ceiling: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """b_L, b_U [MMBtu] of target logits (mid-point, band) of shape (..., T, 2), between
+    tomorrow's floor and ceiling (`floor`, `ceiling`: shape (T+1,), as `inventory_bounds`)."""
+    floor, ceiling = floor[1:], ceiling[1:]
     mid, band = logits[..., 0], jax.nn.softplus(logits[..., 1])
     span = (ceiling - floor) * (1 + 2 * TARGET_OVERSHOOT)
     position = lambda z: floor - TARGET_OVERSHOOT * (ceiling - floor) + span * jax.nn.sigmoid(z)  # noqa: E731
@@ -281,6 +286,14 @@ def simulate_basestock(policy: BasestockPolicy, inputs: StorageInputs, scene: Sc
         low, high = basestock_targets(policy, inputs, scene, None, sharpness, floor, ceiling)
         prices, low_t, high_t = inputs.forward_curve, low, high
         start = inputs.initial_inventory
+    return follow_targets(inputs, scene, low_t, high_t, prices, start, floor, sharpness)
+
+
+def follow_targets(inputs: StorageInputs, scene: Scene, low_t, high_t, prices, start, floor,
+                   sharpness: float | None) -> Schedule:
+    """Move the inventory from `start` (paths,) or () towards the targets `low_t`, `high_t`
+    (day-major: (T, paths) or (T,)) at the largest feasible rate each day, and trade at `prices`
+    ((paths, T) or (T,)); `floor`: `inventory_floor` (T+1,)."""
     flow_k = flow_sharpness(inputs, sharpness)
 
     def step(day, inventory, _, today):

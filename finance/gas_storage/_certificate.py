@@ -30,6 +30,7 @@ from ._lp import IntrinsicSolution
 from ._lsmc import InventoryGrid, LSMCFit
 from ._lsmc_deltas import lsmc_value_and_deltas
 from ._model import Schedule, flows_and_cash, spot_prices
+from ._paths import PricePaths
 from ._results import standard_error
 
 LOOSE_RELAXATION = 0.01  # rates raised by more than this share make the bound's warning "valid but loose"
@@ -92,7 +93,30 @@ def duality_gaps(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, eval_
     if "lattice" in policies:
         out["lattice_out_of_sample"] = float(np.mean(policies["lattice"].value))
         out["lattice_se"] = standard_error(policies["lattice"].value)
-    return {**out, "warnings": certify(out, upper, lowers, relaxed.relaxation)}
+    warnings = certify(out, upper, lowers, relaxed.relaxation)
+    if isinstance(eval_shocks, PricePaths) and penalty is not None and "intrinsic" in lowers:
+        warnings += penalty_mean_check(out, *lowers["intrinsic"])
+    return {**out, "warnings": warnings}
+
+
+def _clear_bound(out: dict) -> None:
+    for key in [key for key in out if key.startswith("dual_upper_bound") or key.endswith("_gap")
+                or key.endswith("_gap_se")]:
+        out[key] = None
+
+
+def penalty_mean_check(out: dict, cash: np.ndarray, lower: np.ndarray) -> list[str]:
+    """On given paths (a file), the penalty has mean zero for a non-anticipative policy only if
+    the paths follow the price model whose conditional expectations built it: the penalty the
+    intrinsic schedule pays (cash - lower, per path) is tested for mean zero (4 standard
+    errors); where it fails the bound is not certified and its fields become null."""
+    paid = cash - lower
+    if abs(paid.mean()) <= 4 * standard_error(paid) + 1e-12 * (np.abs(cash).mean() + 1.0):
+        return []
+    _clear_bound(out)
+    return [f"dual bound not certified: the penalty paid by the intrinsic schedule has mean {paid.mean():,.2f} "
+            f"(standard error {standard_error(paid):,.2f}), not zero: the paths do not follow the price model its "
+            "conditional expectations come from; its fields are null"]
 
 
 def _bound_grid(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, penalty, dual_nodes: int | None,
@@ -135,9 +159,7 @@ def certify(out: dict, upper: np.ndarray, lowers: dict[str, tuple], relaxation: 
             worst = float(np.max(lower - upper))
             warnings.append(f"dual bound not certified: below {name}'s cash less penalty on {int(below.sum())} of "
                             f"{upper.size} paths (by up to {worst:,.2f}); its fields are null")
-            for key in [key for key in out if key.startswith("dual_upper_bound") or key.endswith("_gap")
-                        or key.endswith("_gap_se")]:
-                out[key] = None
+            _clear_bound(out)
             return warnings + _mean_checks(None, lowers)
         difference = upper - cash
         if difference.mean() < -3 * standard_error(difference):

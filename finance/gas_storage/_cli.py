@@ -53,6 +53,13 @@ def add_lsmc_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC inventory grid levels")
     parser.add_argument("--lsmc-degree", type=count(1, 12), default=3, help="LSMC polynomial degree in spot")
     parser.add_argument("--foresight-paths", type=count(), default=256, help="paths of the perfect-foresight LPs")
+    parser.add_argument("--price-model", type=pathlib.Path, metavar="FILE.yaml", help="value on this price model "
+                        "(one-, two- or three-factor; docs/gas_storage.md, Price models): intrinsic, rolling intrinsic, "
+                        "LSMC on the model's state, SNAPO reading the state, the dual bound (implies --stochastic)")
+    parser.add_argument("--train-paths-file", type=pathlib.Path, metavar="FILE", help="the desk's training paths "
+                        "(NPZ or Parquet): SNAPO samples --train-paths of them a step, LSMC regresses on them")
+    parser.add_argument("--value-paths-file", type=pathlib.Path, metavar="FILE", help="the desk's valuation paths "
+                        "(NPZ or Parquet): every method is valued on them")
 
 
 def study_from_args(args):
@@ -105,15 +112,31 @@ def run_gas(args) -> int:
     from ._study import run_study
     from ._versus_lsmc import compare_with_lsmc
 
+    from ._path_files import paths_of_args
+
+    if args.price_model is not None:
+        from ._gas_model_cli import run_gas_on_model
+
+        if args.volatility is not None or args.mean_reversion is not None:
+            raise InputError("--volatility and --mean-reversion set the built-in one-factor model; with "
+                             "--price-model the model file gives the parameters.")
+        args.stochastic = True
+        return run_gas_on_model(args, *study_from_args(args))
     inputs, settings = study_from_args(args)
+    training, evaluation = paths_of_args(args, inputs)
+    if (training is not None or evaluation is not None) and not settings.stochastic:
+        raise InputError("--train-paths-file and --value-paths-file are spot paths: add --stochastic (or give "
+                         "--price-model).")
     if args.lsmc:
         if not settings.stochastic:
             raise InputError("--lsmc needs --stochastic (LSMC values the optionality on simulated spot paths).")
         result = compare_with_lsmc(inputs, settings, nodes=args.lsmc_nodes, degree=args.lsmc_degree,
-                                   foresight_paths=args.foresight_paths)
+                                   foresight_paths=args.foresight_paths, training_paths=training,
+                                   evaluation_paths=evaluation)
         return _write(result, result.study.policy, args.json)
-    result = run_study(inputs, settings)
+    result = run_study(inputs, settings, training_paths=training, evaluation_paths=evaluation)
     return _write(result, result.policy, args.json)
+
 
 
 def run_demo(args) -> int:
@@ -143,6 +166,14 @@ def run_bench_lsmc(args) -> int:
 
 def run_bench_family(args) -> int:
     from ._bench_family import run_family_benchmark
+
+    if args.price_model not in (None, "one-factor"):
+        from ._bench_model_family import run_model_family
+
+        run_model_family(args.out, args.price_model, paths=args.paths, cases=args.cases, seed=args.seed,
+                         train_steps=args.train_steps, nodes=args.lsmc_nodes, names=tuple(args.case or ()),
+                         progress=args.progress)
+        return 0
 
     run_family_benchmark(args.out, paths=args.paths, cases=args.cases, seed=args.seed, train_steps=args.train_steps,
                          nodes=args.lsmc_nodes, volatilities=tuple(args.volatility), progress=args.progress,
@@ -199,6 +230,9 @@ def register_gas(cli) -> None:
                         help="B&dJ's volatilities to run (mean reversion 0.05/day)")
     family.add_argument("--train-steps", type=count(), help="SNAPO training steps (default: the head's)")
     family.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC levels at least (more where a flow needs)")
+    family.add_argument("--price-model", choices=["one-factor", "two-factor", "three-factor"], help="value under "
+                        "this price model's shipped example (finance/data/price_model_*.yaml): intrinsic, rolling "
+                        "intrinsic, LSMC on the model's state, SNAPO, the bound (default: the one-factor family)")
     family.set_defaults(handler=run_bench_family)
     cli.accuracy("smoothing", smoothing_accuracy)
     cli.accuracy("monte-carlo", monte_carlo_accuracy)

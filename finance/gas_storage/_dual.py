@@ -217,12 +217,12 @@ class DualBound(NamedTuple):
 
 @eqx.filter_jit
 def _dual_values(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
-                 relaxed: RelaxedGrid, prices: jax.Array) -> jax.Array:
+                 relaxed: RelaxedGrid, prices: jax.Array, paths=None) -> jax.Array:
     level = np.arange(relaxed.nodes)
     highest, lowest = level + np.asarray(relaxed.max_in_steps), level - np.asarray(relaxed.max_out_steps)
     levels = jnp.asarray(relaxed.levels)
     one_step = jnp.asarray([relaxed.spacing, -relaxed.spacing])
-    daily = None if penalty is None else penalty.daily(inputs, prices)
+    daily = None if penalty is None else penalty.daily(inputs, prices, paths)
 
     def back(later, today):
         day, price, day_inputs = today
@@ -244,13 +244,15 @@ def _dual_values(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: 
 
 
 def dual_bound(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
-               prices: jax.Array, *, relaxed: RelaxedGrid | None = None, chunk: int = 2_000) -> DualBound:
+               prices: jax.Array, *, relaxed: RelaxedGrid | None = None, chunk: int = 2_000,
+               price_paths=None) -> DualBound:
     """Solve every path's relaxed penalised problem on `prices` of shape (paths, T) [$/MMBtu]
     (evaluation paths, not those the penalty was fitted on; positive, as the stochastic spot's),
     `chunk` paths at a time. `grid`: the levels the penalty is given on; `relaxed`: the bound's
     grid (default `relaxed_grid`); fewer than `chunk` at a time on a grid of more than
     CHUNK_CELLS / `chunk` levels. `penalty=None` gives perfect foresight (relaxed: equal to
-    `perfect_foresight`'s LP when the relaxation is exact)."""
+    `perfect_foresight`'s LP when the relaxation is exact). `price_paths`: the same paths as
+    `PricePaths`, for a penalty that reads the price model's state (`AbstractPenalty.daily`)."""
     relaxed = relaxed_grid(inputs, scene, paths=prices.shape[0]) if relaxed is None else relaxed
     paths = prices.shape[0]
     size = min(chunk, paths, max(1, CHUNK_CELLS // relaxed.nodes))
@@ -258,13 +260,20 @@ def dual_bound(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: Sc
     for start in range(0, paths, size):
         block = prices[start:start + size]
         padded = jnp.concatenate([block, jnp.broadcast_to(block[-1:], (size - block.shape[0],) + block.shape[1:])])
-        parts.append(_dual_values(penalty, inputs, scene, grid, relaxed, padded)[:block.shape[0]])
+        state = None if price_paths is None else _padded(price_paths[start:start + size], size)
+        parts.append(_dual_values(penalty, inputs, scene, grid, relaxed, padded, state)[:block.shape[0]])
     return DualBound(jnp.concatenate(parts), relaxed)
+
+
+def _padded(paths, size: int):
+    """`paths` (a `PricePaths` block) with its last path repeated up to `size` paths."""
+    rows = jnp.minimum(jnp.arange(size), paths.shape[0] - 1)
+    return paths[rows]
 
 
 @eqx.filter_jit
 def schedule_penalty(penalty: AbstractPenalty, inputs: StorageInputs, grid: InventoryGrid, prices: jax.Array,
-                     inventory: jax.Array, relaxed: RelaxedGrid | None = None) -> jax.Array:
+                     inventory: jax.Array, relaxed: RelaxedGrid | None = None, paths=None) -> jax.Array:
     """The total penalty sum_t w_t(V_{t+1}) [$] paid by schedules with inventories `inventory` of
     shape (paths, T+1) [MMBtu] (as in `Schedule`): w interpolated linearly between the levels of
     `relaxed` (the bound's grid, as `dual_bound` charges it) or, without it, of `grid`; shape
@@ -282,12 +291,13 @@ def schedule_penalty(penalty: AbstractPenalty, inputs: StorageInputs, grid: Inve
         ends = _per_row(per_level, first + jnp.stack([low, low + 1], -1) * spacing, grid.spacing)
         return total + (1 - weight) * ends[:, 0] + weight * ends[:, 1], None
 
-    total, _ = jax.lax.scan(add, jnp.zeros(prices.shape[0]), (penalty.daily(inputs, prices), inventory[:, 1:].T))
+    total, _ = jax.lax.scan(add, jnp.zeros(prices.shape[0]), (penalty.daily(inputs, prices, paths),
+                                                              inventory[:, 1:].T))
     return total
 
 
 def tightest_grid(penalty: AbstractPenalty | None, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
-                  candidates: list[RelaxedGrid], pilot_prices: jax.Array) -> RelaxedGrid:
+                  candidates: list[RelaxedGrid], pilot_prices: jax.Array, pilot_paths=None) -> RelaxedGrid:
     """The candidate grid whose bound is lowest on `pilot_prices` (paths, T): paths of their own,
     not the bound's, so that the choice leaves the bound valid and unbiased (the lower of two
     bounds on the same paths would be biased low, and a per-path minimum is no bound: each grid
@@ -298,6 +308,7 @@ def tightest_grid(penalty: AbstractPenalty | None, inputs: StorageInputs, scene:
     distinct = list(dict.fromkeys(candidates))
     if len(distinct) == 1:
         return distinct[0]
-    means = [float(jnp.mean(dual_bound(penalty, inputs, scene, grid, pilot_prices, relaxed=candidate).values))
+    means = [float(jnp.mean(dual_bound(penalty, inputs, scene, grid, pilot_prices, relaxed=candidate,
+                                       price_paths=pilot_paths).values))
              for candidate in distinct]
     return distinct[int(np.argmin(means))]

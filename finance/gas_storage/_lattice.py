@@ -161,7 +161,7 @@ class LatticePenalty(AbstractPenalty):
         self.factor = lattice.factor
         self.later_values = jnp.concatenate([lattice.values[1:], jnp.zeros_like(lattice.values[:1])])
 
-    def daily(self, inputs: StorageInputs, prices: jax.Array):
+    def daily(self, inputs: StorageInputs, prices: jax.Array, paths=None):
         transition = factor_transition(inputs)
         factor = _factor(inputs, prices)
         following = jnp.concatenate([factor[:, 1:], factor[:, -1:]], axis=1)

@@ -170,6 +170,27 @@ def fit_lsmc(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices: j
     return LSMCFit(coefficients, spot_scale, start_value(inputs, grid, values))
 
 
+def continuation_decision(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, inventory, price, day,
+                          floor_tomorrow, value_of_levels) -> tuple[jax.Array, jax.Array]:
+    """One day's decision of every path from `inventory` (paths,) at `price` (paths,): the
+    candidate inventory maximising today's discounted cash plus `value_of_levels` (paths, N),
+    the value of ending the day at each level, interpolated. Returns (tomorrow's inventory,
+    today's cash), each (paths,)."""
+    positions, valid = candidate_inventories(inputs, scene, grid, inventory, floor_tomorrow)  # (paths, M)
+    cash = flows_and_cash(inputs, scene, positions - inventory[:, None], price[:, None], day, None)[2]
+    value_after = _per_row(value_of_levels, positions, grid.spacing)
+    best = jnp.argmax(jnp.where(valid, cash + value_after, -jnp.inf), axis=-1)[:, None]
+    chosen = lambda a: jnp.take_along_axis(a, best, axis=-1)[:, 0]  # noqa: E731
+    return chosen(positions), chosen(cash)
+
+
+def schedule_of(inputs: StorageInputs, scene: Scene, inventory: jax.Array, cash: jax.Array) -> Schedule:
+    """The hard `Schedule` of inventories (paths, T+1) and daily cash (T, paths)."""
+    net = jnp.diff(inventory, axis=-1)
+    kept = kept_fraction(inputs, scene)
+    return Schedule(cash.sum(0), jnp.maximum(net, 0.0) / kept, jnp.maximum(-net, 0.0), inventory)
+
+
 def run_continuation_policy(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices: jax.Array,
                             continuation, per_day) -> Schedule:
     """A rule that each day moves every path (`prices`, shape (paths, T)) to the candidate
@@ -180,19 +201,13 @@ def run_continuation_policy(inputs: StorageInputs, scene: Scene, grid: Inventory
 
     def forward(inventory, today):
         day, price, floor_tomorrow, rest = today
-        positions, valid = candidate_inventories(inputs, scene, grid, inventory, floor_tomorrow)  # (paths, M)
-        cash = flows_and_cash(inputs, scene, positions - inventory[:, None], price[:, None], day, None)[2]
-        value_after = _per_row(continuation(rest, price), positions, grid.spacing)
-        best = jnp.argmax(jnp.where(valid, cash + value_after, -jnp.inf), axis=-1)[:, None]
-        chosen = lambda a: jnp.take_along_axis(a, best, axis=-1)[:, 0]  # noqa: E731
-        return chosen(positions), (inventory, chosen(cash))
+        chosen, cash = continuation_decision(inputs, scene, grid, inventory, price, day, floor_tomorrow,
+                                             continuation(rest, price))
+        return chosen, (inventory, cash)
 
     start = jnp.broadcast_to(inputs.initial_inventory, prices.shape[:1])
     last, (inventory, cash) = jax.lax.scan(forward, start, (jnp.arange(inputs.n_days), prices.T, floor[1:], per_day))
-    inventory = jnp.concatenate([inventory, last[None]]).T
-    net = jnp.diff(inventory, axis=-1)
-    kept = kept_fraction(inputs, scene)
-    return Schedule(cash.sum(0), jnp.maximum(net, 0.0) / kept, jnp.maximum(-net, 0.0), inventory)
+    return schedule_of(inputs, scene, jnp.concatenate([inventory, last[None]]).T, cash)
 
 
 @eqx.filter_jit

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 from snapo_ode import EffectCatalogue, Scene, rollout, smooth
 
 from ._inputs import DAYS_PER_YEAR, StorageInputs
+from ._paths import PricePaths
 
 GAS_EFFECTS = EffectCatalogue(
     "gas storage",
@@ -200,8 +201,12 @@ def spot_factor(inputs: StorageInputs, shocks: jax.Array) -> jax.Array:
     return factor.T - transition.variance / 2
 
 
-def spot_prices(inputs: StorageInputs, shocks: jax.Array) -> tuple[jax.Array, jax.Array]:
+def spot_prices(inputs: StorageInputs, shocks) -> tuple[jax.Array, jax.Array]:
     """Monte Carlo spot paths spot_t = F_t exp(X_t - Var(X_t)/2) [$/MMBtu] and the factor
-    X_t - Var(X_t)/2, both shape (paths, T), for `shocks` of shape (paths, T)."""
+    X_t - Var(X_t)/2, both shape (paths, T), for `shocks` of shape (paths, T); or, for given
+    `PricePaths` (`_paths.py`: a paths file, a multi-factor model), F_t exp(log ratio) and the
+    log ratio."""
+    if isinstance(shocks, PricePaths):
+        return inputs.forward_curve * jnp.exp(shocks.log_ratio), shocks.log_ratio
     factor = spot_factor(inputs, shocks)
     return inputs.forward_curve * jnp.exp(factor), factor

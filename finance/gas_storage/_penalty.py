@@ -170,10 +170,12 @@ def _penalty_regression(predictable, features, target):
 class AbstractPenalty(eqx.Module):
     """A penalty w_t(n') of zero conditional mean given day t. `daily` gathers, from the prices,
     what each day needs (a pytree with a leading day axis, scanned over); `today` turns one
-    day's slice into w_t for every path and node, shape (paths, N) [$]."""
+    day's slice into w_t for every path and node, shape (paths, N) [$]. `paths`: the same paths
+    as `PricePaths` with the price model's state, for penalties that read more than the spot
+    (None where the spot is the whole state)."""
 
     @abc.abstractmethod
-    def daily(self, inputs: StorageInputs, prices: jax.Array):
+    def daily(self, inputs: StorageInputs, prices: jax.Array, paths=None):
         """Per-day inputs of `today`, leading axis T."""
 
     @abc.abstractmethod
@@ -191,7 +193,7 @@ class RegressionPenalty(AbstractPenalty):
     spot_scale: jax.Array
     state_degree: int = eqx.field(static=True)
 
-    def daily(self, inputs: StorageInputs, prices: jax.Array):
+    def daily(self, inputs: StorageInputs, prices: jax.Array, paths=None):
         ratio = prices / inputs.forward_curve
         return _day_steps(inputs, prices, self.spot_scale), ratio.T, self.spot_scale, self.coefficients
 

@@ -17,6 +17,7 @@ from ._inputs import StorageInputs, check_positive_prices
 from ._lattice_start import basestock_start
 from ._lp import solve_intrinsic
 from ._model import deterministic_scene, stochastic_scene
+from ._paths import PricePaths
 from ._policy import DEFAULT_HEAD, POLICY_HEADS, PolicyHead, expected_value, make_policy, simulate
 from ._results import StorageStudy, standard_error
 
@@ -184,10 +185,14 @@ def evaluation_shocks(settings: StudySettings, n_days: int) -> jax.Array:
     return jax.random.normal(eval_key, (settings.paths, n_days))
 
 
-def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
+def run_study(inputs: StorageInputs, settings: StudySettings, *, training_paths: PricePaths | None = None,
+              evaluation_paths: PricePaths | None = None) -> StorageStudy:
     """Train, evaluate, compare with the LP, and compute sensitivities. Returns the typed result
     (JSON keys documented in docs/gas_storage.md), which carries the trained policy, the
-    evaluation shocks and the hard schedule of every evaluation path."""
+    evaluation shocks and the hard schedule of every evaluation path. `training_paths`,
+    `evaluation_paths` (a desk's own paths, `_path_files.py`): each training step samples
+    `train_paths` of the first (with replacement) instead of drawing fresh shocks; the policy is
+    valued on the second instead of `settings.paths` fresh paths."""
     if settings.stochastic:
         check_positive_prices(inputs)
     check_size(inputs.n_days, settings)
@@ -197,7 +202,7 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
     eval_shocks = None
     spot_scale = 1.0
     if settings.stochastic:
-        eval_shocks = evaluation_shocks(settings, inputs.n_days)
+        eval_shocks = evaluation_shocks(settings, inputs.n_days) if evaluation_paths is None else evaluation_paths
         kappa = max(float(inputs.mean_reversion), 1e-6)
         spot_scale = max(float(inputs.volatility) / np.sqrt(2 * kappa), 1e-3)
     intrinsic = solve_intrinsic(inputs, deterministic_scene())
@@ -215,7 +220,10 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
 
     def loss(policy, *step_key):
         shocks = None
-        if settings.stochastic:
+        if settings.stochastic and training_paths is not None:
+            rows = jax.random.randint(step_key[0], (settings.train_paths,), 0, training_paths.shape[0])
+            shocks = cast(training_paths[rows])
+        elif settings.stochastic:
             shocks = jax.random.normal(step_key[0], (settings.train_paths, inputs.n_days), train_dtype)
         value = expected_value(cast(policy), cast(inputs), scene, sharpness=sharpness, shocks=shocks)
         return -value / scale, {"value": value}
@@ -267,7 +275,7 @@ def run_study(inputs: StorageInputs, settings: StudySettings) -> StorageStudy:
     value_smooth = float(np.mean(smooth_run.value))
     stochastic = {}
     if settings.stochastic:
-        stochastic = dict(paths=settings.paths, train_paths=settings.train_paths,
+        stochastic = dict(paths=eval_shocks.shape[0], train_paths=settings.train_paths,
                           value_hard_se=standard_error(hard_run.value), value_smooth_se=standard_error(smooth_run.value),
                           evaluation="out of sample: fresh paths, not those trained on",
                           schedule_note="schedule entries are means over the evaluation paths")

@@ -12,6 +12,7 @@ from ._certificate import duality_gaps, intrinsic_schedule, lsmc_deltas
 from ._inputs import StorageInputs
 from ._lsmc import perfect_foresight, value_lsmc
 from ._model import largest_flows, spot_prices, stochastic_scene
+from ._paths import PricePaths
 from ._results import LSMCComparison, standard_error
 from ._study import StudySettings, run_study
 
@@ -51,24 +52,28 @@ def trading_nodes(inputs: StorageInputs, at_least: int) -> int:
 
 
 def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: int = 101, degree: int = 3,
-                      foresight_paths: int = 256, lattice_points: int = 200) -> LSMCComparison:
+                      foresight_paths: int = 256, lattice_points: int = 200, training_paths: PricePaths | None = None,
+                      evaluation_paths: PricePaths | None = None) -> LSMCComparison:
     """Run the SNAPO study (`run_study`, stochastic) and value the contract by LSMC with
     regressions fitted on `settings.paths` paths of their own; evaluate LSMC's decision rule on the
     study's evaluation paths (SNAPO's hard schedule on them comes with the study), the
     perfect-foresight LP on the first `foresight_paths` of them, and the dual bound, the gaps and
-    the deltas on all of them (`_certificate.py`)."""
+    the deltas on all of them (`_certificate.py`). With a desk's own paths (`training_paths`,
+    `evaluation_paths`), SNAPO trains and LSMC regresses on the first, and both are valued on the
+    second; the bound is then checked to have a penalty of mean zero on them (`_certificate.py`)."""
     if not settings.stochastic:
         raise ValueError("the LSMC comparison needs StudySettings(stochastic=True)")
     check_grid_trades(inputs, nodes)
-    study = run_study(inputs, settings)
+    study = run_study(inputs, settings, training_paths=training_paths, evaluation_paths=evaluation_paths)
     scene = stochastic_scene()
     eval_prices, _ = spot_prices(inputs, study.evaluation_shocks)
-    fit_prices, _ = spot_prices(inputs, lsmc_fit_shocks(settings, inputs.n_days))
+    fit_prices, _ = spot_prices(inputs, lsmc_fit_shocks(settings, inputs.n_days) if training_paths is None
+                                else training_paths)
     lsmc = value_lsmc(inputs, scene, fit_prices, eval_prices, nodes=nodes, degree=degree)
     schedule, fit, grid = lsmc.pop("schedule"), lsmc.pop("fit"), lsmc.pop("grid")
     snapo_values = np.asarray(study.hard.value)
     difference = snapo_values - np.asarray(schedule.value)
-    subset = min(foresight_paths, settings.paths)
+    subset = min(foresight_paths, eval_prices.shape[0])
     foresight = perfect_foresight(inputs, scene, eval_prices[:subset], progress=settings.progress)
     policies = {"snapo": study.hard, "lsmc": schedule,
                 "intrinsic": intrinsic_schedule(inputs, scene, study.intrinsic, eval_prices)}

@@ -1,0 +1,44 @@
+"""`snapo gas --price-model FILE.yaml`: every method on the desk's price model (`_model_study.py`),
+on paths it simulates or on the desk's own paths files, one JSON."""
+
+import sys
+
+import jax
+
+from snapo_ode import InputError, atomic_write_json
+
+
+def run_gas_on_model(args, inputs, settings) -> int:
+    """`args`' price model and paths files on the contract `inputs`, with the study's `settings`
+    (paths, seed, progress); everything is read and checked before any compile."""
+    from ._model_study import value_on_model
+    from ._path_files import paths_of_args
+    from ._price_model_file import load_price_model
+    from ._price_models import model_paths
+
+    model = load_price_model(args.price_model)
+    training, evaluation = paths_of_args(args, inputs, factor_count=len(model.factor_names))
+    for file, given in ((args.train_paths_file, training), (args.value_paths_file, evaluation)):
+        if given is not None and given.factors is None:
+            raise InputError(f"paths file {file}: the file gives no factors; the {type(model).__name__} reads its state "
+                             f"({', '.join(model.factor_names)}): add 'factors' (paths x days x "
+                             f"{len(model.factor_names)}).")
+    key = jax.random.key(settings.seed)
+    if training is None:
+        training = model_paths(model, inputs.forward_curve, settings.paths, jax.random.fold_in(key, 11))
+    external = evaluation is not None
+    if evaluation is None:
+        evaluation = model_paths(model, inputs.forward_curve, settings.paths, jax.random.fold_in(key, 13))
+    result = value_on_model(model, inputs, training, evaluation, nodes=args.lsmc_nodes, seed=settings.seed,
+                            train_steps=args.train_steps, train_paths=args.train_paths, external=external,
+                            progress=settings.progress)
+    result.pop("policy")
+    written = atomic_write_json(args.json, result)
+    print(f"storage on {result['price_model']}: intrinsic {result['intrinsic_lp']:,.0f}, rolling intrinsic "
+          f"{result['rolling_intrinsic'] or float('nan'):,.0f}, LSMC {result['lsmc_out_of_sample']:,.0f}, SNAPO "
+          f"{result['snapo_out_of_sample']:,.0f} (SNAPO - LSMC {result['snapo_minus_lsmc']:,.0f} +- "
+          f"{result['snapo_minus_lsmc_se']:,.0f}), dual bound {result['dual_upper_bound'] or float('nan'):,.0f}")
+    print(f"  written: {written}")
+    for warning in result["warnings"]:
+        print(f"snapo: warning: {warning}", file=sys.stderr)
+    return 0

@@ -1,0 +1,170 @@
+"""Storage on a desk's own price model: every method on the same paths, in any dimension.
+
+On training paths (a price model's simulation, or a paths file) LSMC regresses on the model's
+state (`_state_lsmc.py`) and the SNAPO policy trains, started on the LSMC's targets
+(`_state_policy.py`); on separate evaluation paths the intrinsic schedule, rolling intrinsic
+(`_rolling_intrinsic.py`, on the first `rolling_paths`), LSMC and SNAPO are valued hard, paired;
+the dual bound (`_dual.py`) with the state penalty (`_state_penalty.py`, fitted on the training
+paths) bounds every non-anticipative policy from above, each policy's gap with the penalty as a
+control variate; SNAPO's and LSMC's forward-curve deltas come from one reverse pass each.
+
+The bound is certified as `_certificate.certify` says (pathwise and mean checks) and, where the
+evaluation paths come from a file, only if the penalty the intrinsic schedule pays has mean
+zero on them (`penalty_mean_check`): otherwise its fields are null, with a warning.
+"""
+
+import time
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import snapo_ode
+from snapo_ode import time_once
+
+from ._certificate import certify, intrinsic_schedule, penalty_mean_check
+from ._dual import dual_bound, relaxed_grid, schedule_penalty
+from ._inputs import StorageInputs, check_positive_prices
+from ._lp import solve_intrinsic
+from ._lsmc import inventory_grid
+from ._model import deterministic_scene, spot_prices, stochastic_scene
+from ._paths import PricePaths
+from ._price_models import AbstractPriceModel
+from ._results import standard_error
+from ._rolling_intrinsic import reoptimisation_days, rolling_intrinsic
+from ._state_lsmc import fit_state_lsmc, run_state_lsmc, state_lsmc_value_and_deltas
+from ._state_penalty import fit_state_penalty
+from ._state_policy import make_state_policy, simulate_state_policy
+
+MODEL_TRAINING = dict(train_paths=512, train_steps=300, learning_rate=3e-3, sharpness=1000.0)
+DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths (its grid's work)
+ROLLING_PATHS = 500  # rolling intrinsic on the first this many evaluation paths (its work grows as T^2)
+
+
+def _paired(a, b) -> tuple[float, float]:
+    difference = np.asarray(a) - np.asarray(b)
+    return float(difference.mean()), standard_error(difference)
+
+
+def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, training: PricePaths,
+                   evaluation: PricePaths, *, nodes: int = 101, degree: int = 2, seed: int = 0,
+                   train_steps: int | None = None, train_paths: int | None = None, rolling_paths: int = ROLLING_PATHS,
+                   dual_paths: int = DUAL_PATHS, external: bool = False, progress: bool = False) -> dict:
+    """Every method on `training` / `evaluation` paths (module docstring); `model` None (a paths
+    file without a price model): no rolling intrinsic and no bound (null, with a warning).
+    Returns the JSON-ready figures, and under `"policy"` the trained `StatePolicy`."""
+    check_positive_prices(inputs)
+    scene = stochastic_scene()
+    settings = dict(MODEL_TRAINING, **{k: v for k, v in dict(train_steps=train_steps, train_paths=train_paths).items()
+                                       if v is not None})
+    grid = inventory_grid(inputs, scene, nodes)
+    warnings = []
+    intrinsic = solve_intrinsic(inputs, deterministic_scene())
+    eval_prices = spot_prices(inputs, evaluation)[0]
+    # LSMC on the training paths, valued with its deltas on the evaluation paths.
+    start = time.perf_counter()
+    fit = fit_state_lsmc(inputs, scene, grid, training, degree)
+    lsmc_fit_seconds = time.perf_counter() - start
+    lsmc_value, lsmc_deltas = state_lsmc_value_and_deltas(fit, inputs, scene, grid, evaluation)
+    lsmc = run_state_lsmc(fit, inputs, scene, grid, evaluation)
+    # SNAPO, started on the LSMC's targets, trained on samples of the training paths.
+    policy = make_state_policy(fit, grid, training, key=jax.random.key(seed))
+    scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
+
+    start = time.perf_counter()
+    # The start's targets depend on the paths alone: computed once for every training and evaluation path.
+    train_start = eqx.filter_jit(policy.start_logits)(inputs, scene, training)
+    eval_start = eqx.filter_jit(policy.start_logits)(inputs, scene, evaluation)
+
+    def loss(policy, step_key):
+        rows = jax.random.randint(step_key, (settings["train_paths"],), 0, training.shape[0])
+        value = jnp.mean(simulate_state_policy(policy, inputs, scene, training[rows], sharpness=settings["sharpness"],
+                                               start=train_start[rows]).value)
+        return -value / scale, {"value": value}
+
+    start_schedule = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None,
+                                                           start=eval_start)
+    trained = snapo_ode.train(loss, policy, steps=settings["train_steps"], learning_rate=settings["learning_rate"],
+                              key=jax.random.fold_in(jax.random.key(seed), 1), progress=progress,
+                              description="training storage policy (price model)")
+    policy = trained.params
+    snapo = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None, start=eval_start)
+
+    @eqx.filter_jit
+    def smooth_value_and_deltas(policy, inputs, eval_start):
+        def value(curve):
+            moved = eqx.tree_at(lambda i: i.forward_curve, inputs, curve)
+            return jnp.mean(simulate_state_policy(policy, moved, scene, evaluation, sharpness=settings["sharpness"],
+                                                  start=eval_start).value)
+        return jax.value_and_grad(value)(inputs.forward_curve)
+
+    snapo_smooth, snapo_deltas = smooth_value_and_deltas(policy, inputs, eval_start)
+    snapo_seconds = time.perf_counter() - start
+    policies = {"snapo": snapo, "lsmc": lsmc, "intrinsic": intrinsic_schedule(inputs, scene, intrinsic, eval_prices)}
+    out = {
+        "price_model": None if model is None else type(model).__name__, "paths": evaluation.shape[0],
+        "train_paths_available": training.shape[0], "intrinsic_lp": intrinsic.value,
+        "lsmc_out_of_sample": float(np.mean(lsmc.value)), "lsmc_se": standard_error(lsmc.value),
+        "lsmc_in_sample": float(np.mean(fit.values)), "lsmc_degree": degree, "lsmc_nodes": grid.nodes,
+        "lsmc_fit_seconds": lsmc_fit_seconds, "lsmc_pathwise_deltas": np.asarray(lsmc_deltas).tolist(),
+        "snapo_start_out_of_sample": float(np.mean(start_schedule.value)),
+        "snapo_out_of_sample": float(np.mean(snapo.value)), "snapo_se": standard_error(snapo.value),
+        "snapo_smooth": float(snapo_smooth), "deltas": np.asarray(snapo_deltas).tolist(),
+        "snapo_seconds": snapo_seconds, "training_settings": settings,
+    }
+    out["snapo_minus_lsmc"], out["snapo_minus_lsmc_se"] = _paired(snapo.value, lsmc.value)
+    out["snapo_minus_intrinsic"], out["snapo_minus_intrinsic_se"] = _paired(snapo.value, policies["intrinsic"].value)
+    if model is None or evaluation.factors is None:
+        warnings.append("no price model with the paths' factors: rolling intrinsic and the dual bound need its "
+                        "conditional expectations; their fields are null")
+        out.update(rolling_intrinsic=None, snapo_minus_rolling=None, dual_upper_bound=None, snapo_gap=None,
+                   lsmc_gap=None)
+        return {**out, "warnings": warnings, "policy": policy}
+    # Rolling intrinsic on the first rolling_paths evaluation paths, paired with SNAPO on them.
+    count = min(rolling_paths, evaluation.shape[0])
+    every = reoptimisation_days(inputs.n_days)
+    rolling_seconds, rolling = time_once(rolling_intrinsic, model, inputs, scene, grid, evaluation[:count], every)
+    out.update(rolling_intrinsic=float(np.mean(rolling.value)), rolling_intrinsic_se=standard_error(rolling.value),
+               rolling_paths=count, rolling_every_days=every, rolling_seconds=rolling_seconds)
+    out["snapo_minus_rolling"], out["snapo_minus_rolling_se"] = _paired(np.asarray(snapo.value)[:count], rolling.value)
+    policies["rolling_intrinsic"] = rolling
+    out.update(_bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual_paths, external))
+    warnings += out.pop("bound_warnings")
+    return {**out, "warnings": warnings, "policy": policy}
+
+
+def _bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual_paths, external) -> dict:
+    """The dual bound with the state penalty on the first `dual_paths` evaluation paths, each
+    policy's value with the penalty as control variate and its gap, and the checks."""
+    start = time.perf_counter()
+    penalty = fit_state_penalty(fit, model, inputs, scene, grid, training)
+    count = min(dual_paths, evaluation.shape[0])
+    paths = evaluation[:count]
+    prices = spot_prices(inputs, paths)[0]
+    relaxed = relaxed_grid(inputs, scene, paths=count)
+    bound = dual_bound(penalty, inputs, scene, grid, prices, relaxed=relaxed, price_paths=paths)
+    upper = np.asarray(bound.values)
+    out = {"dual_upper_bound": float(upper.mean()), "dual_upper_bound_se": standard_error(upper),
+           "dual_penalty": f"state LSMC value, exact conditional means under {type(model).__name__}",
+           "dual_paths": count, "dual_grid_nodes": relaxed.nodes, "dual_relaxation": relaxed.relaxation}
+    lowers = {}
+    for name, schedule in policies.items():
+        used = min(count, schedule.value.shape[0])
+        cash = np.asarray(schedule.value)[:used]
+        paid = np.asarray(schedule_penalty(penalty, inputs, grid, prices[:used], schedule.inventory[:used], relaxed,
+                                           paths[:used]))
+        lower = cash - paid
+        lowers[name] = (cash, lower)
+        top = upper[:used]
+        out.update({f"{name}_value_control_variate": float(lower.mean()),
+                    f"{name}_value_control_variate_se": standard_error(lower),
+                    f"{name}_gap": float((top - lower).mean() / top.mean()),
+                    f"{name}_gap_se": standard_error(top - lower) / float(top.mean())})
+    # certify compares every policy path by path on the bound's paths: rolling intrinsic has fewer.
+    full = {name: pair for name, pair in lowers.items() if pair[0].size == upper.size}
+    warnings = certify(out, upper, full, relaxed.relaxation)
+    if external:
+        warnings += penalty_mean_check(out, *lowers["intrinsic"])
+    out["dual_seconds"] = time.perf_counter() - start
+    return {**out, "bound_warnings": warnings}
