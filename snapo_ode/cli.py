@@ -15,7 +15,7 @@ Every verb, bench and report gets the same options from the core:
 - `--json PATH`: the result's JSON (default `OUT/NAME.json`; a report's `OUT/report.json`);
   a result is always written, so a long run is never lost to a missing flag.
 - `--no-progress`: no progress bars (`args.progress` is the opposite).
-- `--seed N`: the random seed (default 0).
+- `--seed N`: the random seed, in [0, 2^63) (default 0).
 - `--debug`: a traceback instead of the one-line error.
 
 A report also gets `--no-pdf` (HTML, CSV and JSON only) and `--require-pdf` (exit 2 before any
@@ -49,12 +49,12 @@ from importlib.metadata import entry_points
 
 from ._runtime.exits import EXIT_INPUT_ERROR, EXIT_SIGINT, configure_or_warn, ended
 from ._runtime.first_result import add_first_result_bench
-from ._runtime.options import OneLineParser, VersionAction, count, number, positive
+from ._runtime.options import OneLineParser, VersionAction, count, counts, number, numbers, positive, seed
 from ._runtime.terminal import safe_streams
 from ._platform.validation import InputError
 
 __all__ = ["CommandLine", "OneLineParser", "add_common_options", "add_device_options", "add_training_options",
-           "build", "count", "main", "number", "parse", "positive", "publish_report"]
+           "build", "count", "counts", "main", "number", "numbers", "parse", "positive", "publish_report", "seed"]
 PLUGIN_GROUP = "snapo_ode.plugins"
 DEFAULT_OUT = pathlib.Path("snapo-out")
 
@@ -87,7 +87,7 @@ def add_common_options(parser: argparse.ArgumentParser, *, out: pathlib.Path, js
     parser.add_argument("--json", type=pathlib.Path, metavar="PATH",
                         help=f"the result's JSON (default OUT/{json_name})")
     parser.add_argument("--no-progress", action="store_true", help="hide progress bars")
-    parser.add_argument("--seed", type=count(0), default=0, help="random seed (default 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed in [0, 2^63) (default 0)")
     parser.add_argument("--debug", action="store_true", help="show a traceback on error")
     parser.set_defaults(json_name=json_name)
 
@@ -147,7 +147,7 @@ class CommandLine:
         scaling = self.bench("scaling", "strong and weak scaling of the sample-parallel workloads (ALM sensitivities, "
                              "the pharma Monte Carlo) over device counts: time, speed-up, efficiency, memory per "
                              "device, bytes communicated")
-        scaling.add_argument("--device-counts", default="1,2,4", help="comma-separated device counts (default 1,2,4), "
+        scaling.add_argument("--device-counts", type=counts(1), default="1,2,4", help="comma-separated device counts (default 1,2,4), "
                              "each run in a snapo process of its own")
         scaling.add_argument("--only", action="append", metavar="NAME", help="run only this workload (repeatable)")
         scaling.add_argument("--quick", action="store_true", help="small sizes (a test's)")

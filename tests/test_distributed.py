@@ -175,5 +175,5 @@ def test_bench_scaling_refuses_bad_device_counts_before_any_process(tmp_path, ca
 
     code = main(["bench", "scaling", "--device-counts", "1,0", "--out", str(tmp_path)], plugins=[register])
     assert code == 2
-    assert "--device-counts = '1,0'; give positive integers" in capsys.readouterr().err
+    assert "--device-counts: entry 2: 0 is out of range: allowed >= 1" in capsys.readouterr().err
     assert not (tmp_path / "bench_scaling.json").exists()

@@ -156,7 +156,7 @@ def test_a_surface_phase_is_refused_naming_the_file_and_phase():
 
 def test_a_yaml_syntax_error_names_the_file(tmp_path):
     path = _write(tmp_path, "phases:\n- name: gas\n  thermo: [ideal-gas\n")
-    with pytest.raises(InputError, match=rf"mechanism file {re.escape(str(path))}: not valid YAML"):
+    with pytest.raises(InputError, match=rf"mechanism file {re.escape(str(path))}, line 4: not valid YAML"):
         Mechanism.from_yaml(path)
 
 

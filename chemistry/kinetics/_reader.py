@@ -234,7 +234,6 @@ def read_mechanism(cls, path, phase=None):
     if not species:
         raise InputError(f"{where}: no species (neither the phase's `species` nor a `species` section "
                          "lists one); a mechanism needs at least one.")
-    thermo = species_thermo(species_nodes)
     volumes = molar_volumes(species_nodes) if thermo_model == "ideal-condensed" else np.zeros(len(species))
     reference_pressure = ONE_ATM
     for source, node in species_nodes:
@@ -264,6 +263,7 @@ def read_mechanism(cls, path, phase=None):
             raise InputError(f"{r.where}: reaction {r.index} ({r.equation}): a {r.kind} reaction needs the "
                              "pressure or enthalpies of an ideal-gas phase; it is not supported in an "
                              "ideal-condensed one.")
+    thermo = species_thermo(species_nodes)  # device arrays: built once every reaction has been checked
     n_s, n_r = len(species), len(reactions)
     reactant = np.zeros((n_r, n_s))
     product = np.zeros((n_r, n_s))

@@ -7,9 +7,8 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ruamel.yaml import YAML, YAMLError
-from ruamel.yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
-from snapo_ode import InputError, read_text
+from snapo_ode import InputError, check_cantera_yaml, read_text
 
 from ._units import UnitSystem
 
@@ -43,13 +42,15 @@ def load(path: Path) -> Source:
     """The `Source` of the YAML file at `path`.
 
     **Raises:** `InputError` for a missing or oversized file, invalid YAML or non-UTF-8 text, a
-    YAML alias expansion past the bound (`refuse_aliases`), or a document that is not a mapping."""
+    bound of `snapo_ode.check_cantera_yaml` passed (aliases that never end or expand the file past
+    10 times its size, deep nesting, huge values: the file is checked by it before Cantera reads
+    it), or a document that is not a mapping."""
     if not path.is_file():
         raise InputError(f"mechanism path {str(path)!r} is not a file.")
     text = read_text(path, "mechanism")
     # The round-trip loader keeps line numbers, which unsupported-reaction errors cite.
     try:
-        refuse_aliases(path, text)
+        check_cantera_yaml(text, f"mechanism file {path}")
         document = YAML(typ="rt").load(text)
     except YAMLError as error:
         raise InputError(f"mechanism file {path}: not valid YAML: {' '.join(str(error).split())}") from None
@@ -60,37 +61,13 @@ def load(path: Path) -> Source:
     return Source(path, document, UnitSystem(document.get("units")))
 
 
-EXPANSION_LIMIT = 10  # a file's aliases may expand it to at most 10 times its own nodes (+ SLACK)
-EXPANSION_SLACK = 100_000
+def checked_file(name: str | Path) -> Path:
+    """`find_file(name)`, read through `load` (bounded, no aliases) so that Cantera can be handed it.
 
-
-def refuse_aliases(path: Path, text: str) -> None:
-    """Raise `InputError` (file:line) where the YAML aliases (`*name`) of `text` expand it past
-    EXPANSION_LIMIT times its own nodes (plus EXPANSION_SLACK): Cantera expands aliases wherever
-    they are, even under a key it ignores, so ten nested lines of them (a "billion laughs") fill
-    the memory, while a mechanism's few aliases (a shared rate table) pass."""
-    expanded, written = {}, 0
-    open_nodes = [[None, 0]]  # (anchor, expanded size) of each collection being read
-    for event in YAML(typ="rt").parse(text):
-        if isinstance(event, (ScalarEvent, AliasEvent, CollectionStartEvent)):
-            written += 1
-        if isinstance(event, CollectionStartEvent):
-            open_nodes.append([event.anchor, 1])
-            continue
-        if isinstance(event, CollectionEndEvent):
-            anchor, size = open_nodes.pop()
-        elif isinstance(event, (ScalarEvent, AliasEvent)):
-            anchor = event.anchor if isinstance(event, ScalarEvent) else None
-            size = expanded.get(event.anchor, 1) if isinstance(event, AliasEvent) else 1
-        else:
-            continue
-        if anchor is not None:
-            expanded[anchor] = size
-        open_nodes[-1][1] += size
-        if sum(node[1] for node in open_nodes) > EXPANSION_LIMIT * written + EXPANSION_SLACK:
-            raise InputError(f"mechanism file {path}:{event.start_mark.line + 1}: its YAML aliases (*name) expand it "
-                             f"past {EXPANSION_LIMIT} times its own size (Cantera would expand them all in memory); "
-                             "write the aliased content out in full.")
+    **Raises:** `InputError` as `find_file` and `load` do."""
+    path = find_file(name)
+    load(path)
+    return path
 
 
 def _data_directories() -> list[Path]:

@@ -7,9 +7,7 @@ import time
 from pathlib import Path
 from typing import NamedTuple
 
-from ruamel.yaml import YAML
-
-from snapo_ode import InputError
+from snapo_ode import InputError, read_text, read_yaml
 
 from ._crosscheck import RateComparison, compare_rates, compare_thermo
 from ._mechanism import Mechanism
@@ -38,8 +36,8 @@ def ideal_gas_phases(paths: list[Path]) -> list[tuple[Path, str]]:
     their order."""
     phases = []
     for path in paths:
-        block = _PHASES_BLOCK.search(path.read_text(encoding="utf-8"))
-        for node in YAML(typ="safe").load(block.group(1)) if block else []:
+        block = _PHASES_BLOCK.search(read_text(path, "mechanism"))
+        for node in read_yaml(block.group(1), f"mechanism file {path}") if block else []:
             if node.get("thermo") == "ideal-gas":
                 phases.append((path, str(node["name"])))
     return phases

@@ -6,7 +6,7 @@ Heavy imports (JAX, the model) happen inside the handlers, so `snapo --help` sta
 import argparse
 import sys
 
-from snapo_ode.cli import count, number, positive, add_device_options, add_training_options
+from snapo_ode.cli import count, number, numbers, positive, add_device_options, add_training_options
 
 from ._process_file import CPP_RANGES
 
@@ -171,7 +171,7 @@ def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
 def run_bench(args) -> int:
     from ._bench import run_pharma_benchmark
 
-    return run_pharma_benchmark(args.out, rtols=[float(x) for x in args.rtols.split(",")], repeats=args.repeats)
+    return run_pharma_benchmark(args.out, rtols=args.rtols, repeats=args.repeats)
 
 
 def gradient_accuracy(args):
@@ -230,7 +230,7 @@ def register_pharma(cli) -> None:
     report.set_defaults(handler=run_report)
     bench = cli.bench("pharma", "20 sensitivities from 5 reverse passes vs 4 forward tangents: median after "
                       "compile and accuracy against a tight-tolerance reference, per tolerance")
-    bench.add_argument("--rtols", default="1e-5,3e-6,1e-6,1e-7,1e-8",
+    bench.add_argument("--rtols", type=numbers(0, 1, low_open=True, high_open=True), default="1e-5,3e-6,1e-6,1e-7,1e-8",
                        help="comma-separated rtol values (atol = rtol / 100)")
     bench.add_argument("--repeats", type=count(), default=25)
     bench.set_defaults(handler=run_bench)

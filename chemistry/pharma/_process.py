@@ -11,6 +11,7 @@ import numpy as np
 
 from snapo_ode import InputError, check_range, line_of
 
+from ..kinetics._sources import checked_file
 from ._parameters import CPPs, PhysicalParameters
 from ._process_file import ProcessSpec, built_in_process
 
@@ -18,7 +19,7 @@ from ._process_file import ProcessSpec, built_in_process
 def _solution(spec: ProcessSpec):
     where = f"process {spec.path}: mechanism {spec.mechanism!r}"
     try:
-        return cantera.Solution(spec.mechanism, spec.phase or "")
+        return cantera.Solution(str(checked_file(spec.mechanism)), spec.phase or "")
     except cantera.CanteraError as error:
         message = " ".join(str(error).split())[:300]
         raise InputError(f"{where} does not load in Cantera ({message}).") from None

@@ -10,7 +10,7 @@ import re
 from importlib.resources import files
 from typing import NamedTuple
 
-from snapo_ode import InputError, read_text, strict_yaml, validate
+from snapo_ode import MAX_YAML_BYTES, InputError, read_text, strict_yaml, validate
 
 from ._process_schema import ProcessFile
 from ._quantities import conversion, in_model_unit
@@ -205,7 +205,7 @@ def read_process_file(path) -> ProcessSpec:
 
     **Raises:** `InputError` naming the file, the line, the field, the value and what is allowed."""
     path = pathlib.Path(path)
-    text = read_text(path, "process")
+    text = read_text(path, "process", MAX_YAML_BYTES)
     label = f"process file {path}"
     return _process(strict_yaml(text, label), label, text, str(path), path.parent)
 

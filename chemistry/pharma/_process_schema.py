@@ -1,7 +1,7 @@
 """The process file's schema (pydantic, strict): its sections, their fields and types. Names,
 units, ranges and the rules between sections are checked by `_process_file.load_process_spec`."""
 
-from typing import Literal
+from typing import Annotated, Literal
 
 import pydantic
 
@@ -82,7 +82,8 @@ class CQAEntry(_Section):
     name: Name
     definition: (Literal["assay", "purity", "residual_solvent", "loss_on_drying", "d43", "yield",
                          "yield_including_seed"]
-                  | dict[Literal["mass_fraction", "residual_solvent"], pydantic.StrictStr])
+                  | Annotated[dict[Literal["mass_fraction", "residual_solvent"], pydantic.StrictStr],
+                              pydantic.Field(min_length=1)])
     unit: pydantic.StrictStr
     low: FiniteNumber | None = None
     high: FiniteNumber | None = None

@@ -40,8 +40,9 @@ def conversion(unit: str, model_unit: str, field: str) -> float:
     import pint
 
     quantity = _unit(unit, field)
+    target = _unit(model_unit, field).units  # either side may be a user's text (a CQA's unit is the target)
     try:
-        return float(quantity.to(model_unit or "dimensionless").magnitude)
+        return float(quantity.to(target).magnitude)
     except pint.DimensionalityError:
         raise InputError(f"{field}: {unit!r} does not convert to {model_unit or 'a plain number'!r}.") from None
     except pint.OffsetUnitCalculusError:
@@ -70,7 +71,7 @@ def in_model_unit(value, model_unit: str, field: str) -> float:
         return number
     import pint
 
-    quantity = _unit(unit, field)
+    quantity = _unit(unit, f"{field} = {value!r}")
     try:
         if quantity.units == registry().Quantity(1.0, model_unit or "").units:
             return number  # the model's own unit: the number as written, not a product with 1.0

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from snapo_ode import InputError, line_of, read_text, strict_yaml, validate
+from snapo_ode import MAX_YAML_BYTES, InputError, line_of, read_text, strict_yaml, validate
 
 from ._board import BoardSettings
 from ._factors import DEFAULT_MIX, check_market_ranges, holdings_at_funding_ratio, units_held
@@ -146,7 +146,7 @@ def load_fund(path: str | os.PathLike) -> Fund:
     allowed, before anything is compiled."""
     path = pathlib.Path(path)
     where = f"fund file {path}"
-    text = read_text(path, "fund")
+    text = read_text(path, "fund", MAX_YAML_BYTES)
     spec = validate(FundFile, strict_yaml(text, where), where, text)
     file = _Locator(where, text)
     market = _market(spec.market, spec.assets, file)

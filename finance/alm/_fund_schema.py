@@ -1,11 +1,10 @@
 """The fund file's schema (pydantic, strict): its sections, their fields and types. Ranges and
 the rules between fields are checked by `_fund_file.load_fund` and the model's own checks."""
 
-import datetime
 
 import pydantic
 
-from snapo_ode import STRICT_SCHEMA, FiniteNumber
+from snapo_ode import STRICT_SCHEMA, FiniteNumber, IsoDate
 
 from ._model import MAX_HORIZON_MONTHS
 
@@ -51,7 +50,7 @@ class LiabilitiesSection(_Section):
 
     file: str
     cash_flow_unit: str = "million / month"
-    valuation_date: datetime.date | None = None
+    valuation_date: IsoDate | None = None
 
 
 class AssetClassEntry(_Section):

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from snapo_ode import DECIMAL, InputError, read_text
+from snapo_ode import InputError, number_text, read_text, whole_text
 
 from ._liabilities import LiabilitySchedule, row_schedule
 from ._units import per_month_in_millions
@@ -56,10 +56,7 @@ def _months_of(period: str, row: dict, where: str, valuation_date: datetime.date
         return month, month
     numbers = {}
     for column in PERIODS[[p[0] for p in PERIODS].index(period)]:
-        text = row[column].strip()
-        if not (text.isascii() and text.isdigit()) or int(text) < 1:
-            raise InputError(f"{where}: {column} = {row[column]!r}; allowed: a whole number >= 1.")
-        numbers[column] = int(text)
+        numbers[column] = whole_text(row[column], where, column, low=1)
     if period == "month":
         return numbers["month"], numbers["month"]
     if period == "year":
@@ -102,8 +99,8 @@ def load_liabilities(path: str | os.PathLike, cash_flow_unit: str = "million / m
         if all(not value.strip() for value in row.values()):
             continue
         where = f"liability file {path}, line {index + 2}"
-        text = row["cash_flow"].strip()
-        if DECIMAL.fullmatch(text) is None or not 0 <= float(text) < math.inf:
+        flow = number_text(row["cash_flow"], where, "cash_flow")
+        if not 0 <= flow < math.inf:
             raise InputError(f"{where}: cash_flow = {row['cash_flow']!r}; allowed: a finite decimal number >= 0.")
         start, end = _months_of(period[0], row, where, valuation_date)
         if end > MAX_RUN_OFF_MONTHS:
@@ -113,7 +110,7 @@ def load_liabilities(path: str | os.PathLike, cash_flow_unit: str = "million / m
         if "cohort" in header and not re.fullmatch(r"[A-Za-z0-9_]{1,40}", cohort):
             raise InputError(f"{where}: cohort = {row['cohort']!r}; allowed: a name of letters, digits and _ (it "
                              "becomes part of the factor names).")
-        flows.append(float(text) * scale)
+        flows.append(flow * scale)
         first.append(start)
         last.append(end)
         cohorts.append(cohort)

@@ -30,12 +30,16 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
-from snapo_ode import InputError, read_text
+from snapo_ode import DECIMAL, InputError, check_npz, check_parquet, read_text
+from snapo_ode._platform.reading import MAX_NUMBER_CHARS
 
 from ._market import MONTH, Market, interpolation_weights
 
 LONG_COLUMNS = ["scenario", "time", "variable", "value"]
 MAX_SCENARIO_BYTES = 2 * 2**30
+MAX_SCENARIO_VALUES = 2**27  # values (scenarios x times x variables) a file may declare: 1 GiB of float64
+INDEX_FACTOR = dict(cpi=1e3, equity=1e4)  # how far an index may move from its value at time 0, either way
+RATE_BOUND = 1.0  # inflation and spread within [-1, 1] per year
 _TENOR = re.compile(r"zero_rate_(\d+(\.\d*)?|\.\d+)$")
 
 
@@ -69,14 +73,22 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str], list[
     where = f"scenario file {path}"
     suffix = path.suffix.lower()
     if suffix == ".npz":
+        check_npz(path, where, MAX_SCENARIO_VALUES, ("values", "times", "variables"))
         try:
             with np.load(path, allow_pickle=False) as data:
                 missing = [name for name in ("values", "times", "variables") if name not in data]
                 if missing:
                     raise InputError(f"{where}: no array {missing[0]!r}; an NPZ scenario file holds 'values' "
                                      "(scenarios x times x variables), 'times' and 'variables'.")
-                values, times = np.asarray(data["values"], float), np.asarray(data["times"], float)
+                arrays = {name: data[name] for name in ("values", "times")}
+                for name, array in arrays.items():
+                    if array.dtype.kind not in "fiu":
+                        raise InputError(f"{where}: the array {name!r} holds {array.dtype} values; allowed: real "
+                                         "numbers (float or integer).")
+                values, times = np.asarray(arrays["values"], float), np.asarray(arrays["times"], float)
                 names = [str(v) for v in np.atleast_1d(data["variables"])]
+        except InputError:
+            raise
         except (OSError, ValueError, TypeError, EOFError, zipfile.BadZipFile) as error:
             raise InputError(f"{where}: not a readable NPZ scenario file ({type(error).__name__}: {error}).") from None
         if values.ndim != 3 or times.ndim != 1 or values.shape[1:] != (times.size, len(names)):
@@ -93,7 +105,11 @@ def _table(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray, list[str], list[
                                 dtype=str, keep_default_na=False, skip_blank_lines=False)
             table = table[~(table.fillna("").apply(lambda column: column.str.strip()) == "").all(axis=1)].copy()
         else:
-            table = pd.read_parquet(path)
+            import pyarrow.parquet
+
+            check_parquet(path, where, MAX_SCENARIO_VALUES, MAX_SCENARIO_BYTES)
+            # The columns as stored: pandas' metadata (an index made of columns) is not applied.
+            table = pyarrow.parquet.read_table(path).to_pandas(ignore_metadata=True)
     except InputError:
         raise
     except Exception as error:  # pandas and pyarrow raise many types for a malformed file
@@ -121,7 +137,16 @@ def _pivoted(table: pd.DataFrame, where: str, line_offset) -> tuple[np.ndarray, 
         if empty.size:
             raise InputError(f"{_row(where, table, empty[0], line_offset)}: {column} is empty; every row names its {column}.")
     for column in ("time", "value"):
-        numbers = pd.to_numeric(table[column], errors="coerce")
+        cells = table[column]
+        if pd.api.types.is_bool_dtype(cells) or not pd.api.types.is_numeric_dtype(cells):
+            # Text (every CSV cell): a decimal number as CSV writes one, the rule of every user file.
+            text = cells.astype(str).str.strip()
+            bad = np.flatnonzero(~(text.str.fullmatch(DECIMAL.pattern).fillna(False).to_numpy(bool)
+                                   & (text.str.len() <= MAX_NUMBER_CHARS).to_numpy(bool)))
+            if bad.size:
+                raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {cells.iloc[bad[0]]!r}; "
+                                 "allowed: a finite number, written in decimal (such as 0.25 or 1e-3).")
+        numbers = pd.to_numeric(cells, errors="coerce")
         bad = np.flatnonzero(~np.isfinite(numbers.to_numpy(float)))
         if bad.size:
             raise InputError(f"{_row(where, table, bad[0], line_offset)}: {column} = {_cell(table[column].iloc[bad[0]])!r}; "
@@ -168,6 +193,33 @@ def _monthly(values: np.ndarray, times: np.ndarray, horizon: int, where: str, lo
     return np.transpose(np.where(logarithmic, np.exp(filled), filled), (1, 0, 2))
 
 
+def _refuse(where: str, name: str, values: np.ndarray, times: np.ndarray, bad: np.ndarray, allowed: str):
+    """Raise `InputError` naming the first cell of `values` (scenarios, times) that is `bad`."""
+    scenario, time = np.argwhere(bad)[0]
+    raise InputError(f"{where}: {name} = {values[scenario, time]:g}; allowed: {allowed} (scenario {scenario + 1} in "
+                     f"the file's order, time {times[time]:g}).")
+
+
+def _check_ranges(values: np.ndarray, times: np.ndarray, column: dict, equities: list[str], where: str) -> None:
+    """Refuse values that are finite but outside what the model can value: indices that are not
+    > 0 or that move more than `INDEX_FACTOR` from their value at time 0 (their ratios drive the
+    model), and inflation or spread outside [-RATE_BOUND, RATE_BOUND] per year."""
+    for name in [*equities, "cpi"]:
+        index = values[..., column[name]]
+        if np.any(index <= 0):
+            _refuse(where, name, index, times, index <= 0, "an index > 0")
+        factor = INDEX_FACTOR["cpi" if name == "cpi" else "equity"]
+        ratio = index / index[:, :1]
+        far = (ratio > factor) | (ratio < 1 / factor)
+        if np.any(far):
+            _refuse(where, name, index, times, far, f"within a factor of {factor:g} of the scenario's value at time 0 "
+                    f"({ratio[far][0]:.3g} times it here)")
+    for name in ("inflation", "spread"):
+        rate = values[..., column[name]] if name in column else np.zeros(1)
+        if np.any(np.abs(rate) > RATE_BOUND):
+            _refuse(where, name, rate, times, np.abs(rate) > RATE_BOUND, f"[-{RATE_BOUND:g}, {RATE_BOUND:g}] per year")
+
+
 def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int, *, spread: float) -> ScenarioSet:
     """Read a scenario file (see the module docstring) for a fund with `market`'s key tenors and
     equity indices, over `horizon_months`; `spread`: the fund's own, where the file has none.
@@ -194,9 +246,7 @@ def load_scenarios(path: str | os.PathLike, market: Market, horizon_months: int,
         raise InputError(f"{where}: scenario {ids[s]!r}, time {times[t]:g}: {names[v]} = {_cell(values[s, t, v])}; allowed: a "
                          "finite number.")
     column = {name: i for i, name in enumerate(names)}
-    for name in [*equities, "cpi"]:
-        if np.any(values[..., column[name]] <= 0):
-            raise InputError(f"{where}: {name} = {values[..., column[name]].min():g}; allowed: an index > 0.")
+    _check_ranges(values, times, column, equities, where)
     order = sorted(tenors, key=tenors.get)
     for first, second in zip(order, order[1:]):
         if tenors[first] == tenors[second]:

@@ -9,7 +9,7 @@ from importlib.resources import files
 import numpy as np
 import pydantic
 
-from snapo_ode import DECIMAL, STRICT_SCHEMA, InputError, read_text, strict_json, validate
+from snapo_ode import STRICT_SCHEMA, InputError, number_text, read_text, strict_json, validate
 
 Number = float  # strict: an integer or a decimal, never a string or a boolean
 RatchetTable = list[pydantic.conlist(Number, min_length=2, max_length=2)]  # rows [fill, rate]
@@ -44,12 +44,6 @@ def load_facility(path: str | os.PathLike) -> dict:
     return validate(FacilityFile, strict_json(text, where), where, text).model_dump()
 
 
-def _number(text: str, field: str, where: str) -> float:
-    if DECIMAL.fullmatch(text.strip()) is None:
-        raise InputError(f"{where}: {field} = {text!r} is not a decimal number (such as 3.25 or 1e-3).")
-    return float(text)
-
-
 def load_curve(path: str | os.PathLike) -> np.ndarray:
     """Read a forward-curve CSV with header `day,price` and days 0..T-1 in order; prices [$/MMBtu]
     as decimal numbers (no `_` separators, `nan`, `inf` or words).
@@ -75,8 +69,8 @@ def _curve_rows(path, reader) -> np.ndarray:
         where = f"curve file {path}, line {line}"
         if len(row) != 2:
             raise InputError(f"{where}: expected 'day,price'; got {','.join(row)!r}.")
-        day = _number(row[0], "day", where)
-        prices.append(_number(row[1], "price", where))
+        day = number_text(row[0], where, "day")
+        prices.append(number_text(row[1], where, "price"))
         if day != len(prices) - 1:
             raise InputError(f"{where}: day = {row[0]!r}; days must be 0, 1, ..., T-1 in order, so this one must be "
                              f"{len(prices) - 1}.")

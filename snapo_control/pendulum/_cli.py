@@ -3,7 +3,7 @@
 Heavy imports (JAX, the model, Gymnasium) happen inside the handler, so `snapo --help` stays quick.
 """
 
-from snapo_ode.cli import count, CommandLine
+from snapo_ode.cli import count, seed, CommandLine
 
 
 def _pendulum(args) -> int:
@@ -32,6 +32,6 @@ def register_pendulum(cli: CommandLine) -> None:
                         help=f"initial states per step (default {defaults['batch']})")
     parser.add_argument("--eval-episodes", type=count(), default=100, metavar="E",
                         help="Gymnasium episodes of the evaluation (default 100)")
-    parser.add_argument("--eval-seed", type=count(0), default=0, metavar="S",
+    parser.add_argument("--eval-seed", type=seed, default=0, metavar="S",
                         help="seed of the first evaluation reset (default 0)")
     parser.set_defaults(handler=_pendulum)

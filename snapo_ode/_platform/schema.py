@@ -7,20 +7,21 @@ accepts the first two and keeps the last of the duplicates). Types are the schem
 `true` is not a number and `"1e6"` is a string (pydantic's strict mode).
 """
 
+import datetime
 import json
 import os
 import pathlib
 import re
 from collections.abc import Sequence
+from typing import Annotated
 
 import pydantic
 
+from .reading import MAX_DEPTH, MAX_NUMBER_CHARS, read_yaml
 from .validation import InputError, _shorten
 
 MAX_FILE_BYTES = 64 * 2**20  # a user file larger than this is refused before it is parsed
 STRICT_SCHEMA = pydantic.ConfigDict(strict=True, extra="forbid", frozen=True)
-# A decimal number as JSON and CSV write one: no '_' separators, no 'nan', 'inf' or hex.
-DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 
 
 def read_text(path: str | os.PathLike, what: str, max_bytes: int = MAX_FILE_BYTES) -> str:
@@ -55,6 +56,25 @@ def _unique(pairs):
     return seen
 
 
+def _json_number(kind):
+    def parse(text: str):
+        if len(text) > MAX_NUMBER_CHARS:
+            raise InputError(f"a number written with {len(text):,} characters; allowed: at most {MAX_NUMBER_CHARS}")
+        return kind(text)
+    return parse
+
+
+def _depth(value) -> int:
+    """How deeply `value` (parsed JSON) nests lists and dicts, counted without recursion."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if isinstance(node, (dict, list)):
+            deepest = max(deepest, depth + 1)
+            stack.extend((child, depth + 1) for child in (node.values() if isinstance(node, dict) else node))
+    return deepest
+
+
 def _refuse_constant(name):
     raise InputError(f"{name} is not a JSON number (JSON numbers are finite)")
 
@@ -65,13 +85,17 @@ def strict_json(text: str, where: str):
     **Raises:** `InputError` with the line for invalid JSON, a duplicate key, NaN or Infinity,
     or nesting too deep to read."""
     try:
-        return json.loads(text, object_pairs_hook=_unique, parse_constant=_refuse_constant)
+        value = json.loads(text, object_pairs_hook=_unique, parse_constant=_refuse_constant,
+                           parse_int=_json_number(int), parse_float=_json_number(float))
     except json.JSONDecodeError as error:
         raise InputError(f"{where}, line {error.lineno}: not valid JSON ({error.msg}).") from None
     except InputError as error:
         raise InputError(f"{where}: {error}.") from None
     except RecursionError:
         raise InputError(f"{where}: nested too deeply to read.") from None
+    if _depth(value) > MAX_DEPTH:
+        raise InputError(f"{where}: nested more than {MAX_DEPTH} levels deep; allowed: at most {MAX_DEPTH}.")
+    return value
 
 
 def line_of(text: str | None, location: Sequence) -> str:
@@ -100,29 +124,26 @@ def validate(model: type[pydantic.BaseModel], data, where: str, text: str | None
 
 
 def strict_yaml(text: str, where: str):
-    """Parse `text` as YAML into plain data (dicts, lists, numbers, strings, dates); `where` names
-    it in errors. Stricter than YAML: a key given twice and aliases (`*name`, which can expand a
-    small file past the memory) are refused; NaN and infinities parse and are left to the schema
-    (`FiniteNumber` refuses them).
+    """Parse `text` as YAML into plain data (dicts, lists, str, int, float, bool, None) by YAML
+    1.2's core schema, restricted and bounded (`reading.read_yaml`: no aliases, no tags beyond the
+    core ones, no dates, a key given twice refused); `where` names it in errors. NaN and
+    infinities parse and are left to the schema (`FiniteNumber` refuses them).
 
-    **Raises:** `InputError` with the line for invalid YAML, a duplicate key or an alias."""
-    from ruamel.yaml import YAML, YAMLError
-    from ruamel.yaml.events import AliasEvent
+    **Raises:** `InputError` with the line for invalid YAML or anything `read_yaml` refuses."""
+    return read_yaml(text, where)
 
-    try:
-        for event in YAML(typ="safe", pure=True).parse(text):
-            if isinstance(event, AliasEvent):
-                raise InputError(f"{where}, line {event.start_mark.line + 1}: a YAML alias (*{event.anchor}); "
-                                 "write the value out instead.")
-        return YAML(typ="safe", pure=True).load(text)
-    except YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        line = f", line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(error, "problem", None) or str(error).splitlines()[0]
-        raise InputError(f"{where}{line}: not valid YAML ({' '.join(str(problem).split())}).") from None
-    except RecursionError:
-        raise InputError(f"{where}: nested too deeply to read.") from None
 
+def _iso_date(value):
+    if isinstance(value, str):
+        try:
+            return datetime.date.fromisoformat(value) if re.fullmatch(r"\d{4}-\d{2}-\d{2}", value) else value
+        except ValueError:
+            raise ValueError(f"{value!r} is not a date of the calendar") from None
+    return value
+
+
+IsoDate = Annotated[datetime.date, pydantic.BeforeValidator(_iso_date)]
+"""A date in a user file: the text YYYY-MM-DD of a day of the calendar (YAML dates are text)."""
 
 FiniteNumber = pydantic.confloat(strict=True, allow_inf_nan=False)
 """A number in a user file: an integer or a decimal, finite (never NaN, an infinity, a string or a

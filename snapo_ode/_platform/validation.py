@@ -11,7 +11,11 @@ import numpy as np
 
 
 class InputError(ValueError):
-    """Bad user input: the message names the field, its value and the allowed range."""
+    """Bad user input: the message names the field, its value and the allowed range; always one
+    line (its whitespace, such as the line breaks of a printed array, is collapsed)."""
+
+    def __init__(self, message: object = "", *args):
+        super().__init__(" ".join(str(message).split()), *args)
 
 
 def _show(value) -> str:

@@ -55,10 +55,7 @@ def scaling_apart(chosen: Sequence[str], args: argparse.Namespace) -> tuple[list
     import json
     import tempfile
 
-    try:
-        counts = [int(count) for count in args.device_counts.split(",")]
-    except ValueError:
-        counts = []
+    counts = args.device_counts  # parsed by the option's type (`options.counts`)
     if not counts or min(counts) < 1:
         raise InputError(f"--device-counts = {args.device_counts!r}; give positive integers separated by commas, "
                          "e.g. 1,2,4.")

@@ -4,7 +4,8 @@
 - 0 success;
 - 2 a user mistake: `InputError` (naming the field, the value and what is allowed), an input
   nested too deeply to read (`RecursionError`);
-- 3 a failed solve or training: `SolverFailed`, `TrainingDiverged`, with advice;
+- 3 a failed solve or training: `SolverFailed`, `TrainingDiverged`, with advice, and any
+  non-finite result found after a computation (`FloatingPointError`);
 - 4 the environment: a full disk, an unwritable or untrusted cache or output (`OSError`,
   `CacheUnavailable`), memory exhausted (`MemoryError`), with advice;
 - 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM (what `timeout`, SLURM and `docker stop`
@@ -131,6 +132,8 @@ def _message(error: Exception) -> tuple[str, int] | None:
         return _environment_message(error), EXIT_ENVIRONMENT
     if isinstance(error, MemoryError):
         return "out of memory; use fewer paths or points, or a larger machine.", EXIT_ENVIRONMENT
+    if isinstance(error, FloatingPointError):
+        return str(error), EXIT_SOLVER_FAILED
     # By name: importing the solver or the trainer here would import JAX before the outputs are checked.
     if any(f"{kind.__module__}.{kind.__qualname__}" in _FAILED_RUNS for kind in type(error).__mro__):
         return str(error), EXIT_SOLVER_FAILED
