@@ -103,17 +103,15 @@ def _temperature(entry: dict, unit: str, process: ProcessSpec, where) -> float:
     if not isinstance(conditions, dict):
         raise InputError(f"{where('conditions')}: conditions = {conditions!r}; allowed: a mapping NAME: VALUE.")
     aliases = {cpp.name: cpp.target for cpp in process.cpps}
-    values = dict(conditions)
-    if "temperature" in entry:
-        values[f"{unit}.temperature"] = entry["temperature"]
+    items = list(conditions.items()) + ([("temperature", entry["temperature"])] if "temperature" in entry else [])
     temperature = None
-    for name, value in values.items():
-        target = aliases.get(name, name)
+    for name, value in items:
+        target = f"{unit}.temperature" if name == "temperature" else aliases.get(name, name)
         if target != f"{unit}.temperature":
             raise InputError(f"{where(name)}: condition {name!r} is not the temperature of {unit}; an experiment sets "
                              f"{unit}.temperature (or the CPP that targets it: "
                              f"{', '.join(n for n, t in aliases.items() if t == f'{unit}.temperature') or 'none'}).")
-        temperature = in_model_unit(value, "K", f"{where(name)}: {name}")
+        temperature = in_model_unit(value, "K", f"{where(name)}: experiments[{entry['name']}].{name}")
     if temperature is None:
         raise InputError(f"{where('name', entry.get('name'))}: experiment {entry.get('name')!r} states no temperature; "
                          "give temperature: (such as 40 degC).")

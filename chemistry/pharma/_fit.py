@@ -95,16 +95,23 @@ def _weights(data: LabData) -> tuple[np.ndarray, bool]:
     return sd, True
 
 
-def residual_functions(model: ExperimentModel, values: np.ndarray, sd: np.ndarray):
-    """(residuals(theta), residuals_and_jacobian(theta)), jitted: the weighted residuals (n,) and
-    their Jacobian (n, p), forward mode through the solves."""
-    values, sd = np.asarray(values), np.asarray(sd)
+def residual_functions(model: ExperimentModel, values: np.ndarray, sd: np.ndarray, programs=None):
+    """(residuals(theta), residuals_and_jacobian(theta)): the weighted residuals (n,) and their
+    Jacobian (n, p), forward mode through the solves. `programs` (`residual_programs(model)`)
+    lets fits of other data on the same design reuse one compile."""
+    residuals, with_jacobian = residual_programs(model) if programs is None else programs
+    values, sd = jax.numpy.asarray(values), jax.numpy.asarray(sd)
+    return (lambda theta: residuals(theta, values, sd)), (lambda theta: with_jacobian(theta, values, sd))
 
-    def residuals(theta):
+
+def residual_programs(model: ExperimentModel):
+    """The jitted (residuals(theta, values, sd), residuals_and_jacobian(theta, values, sd))."""
+
+    def residuals(theta, values, sd):
         return (model.predict(theta) - values) / sd
 
-    def with_jacobian(theta):
-        return residuals(theta), jax.jacfwd(residuals)(theta)
+    def with_jacobian(theta, values, sd):
+        return residuals(theta, values, sd), jax.jacfwd(residuals)(theta, values, sd)
 
     return jax.jit(residuals), jax.jit(with_jacobian)
 
@@ -189,13 +196,16 @@ def _profile_side(with_jacobian, theta, k, sign, se, threshold, chi_min) -> floa
     return float(theta[k] + offset)
 
 
-def fit(chain: PharmaChain, data: LabData, names: list[str] | None = None, *, profile: bool = True) -> FitResult:
+def fit(chain: PharmaChain, data: LabData, names: list[str] | None = None, *, profile: bool = True,
+        programs=None) -> FitResult:
     """Fit the parameters `names` (`fitted_parameters`) of `chain` to `data` (module docstring);
-    `profile`: also the profile-likelihood intervals (a few constrained fits per parameter)."""
+    `profile`: also the profile-likelihood intervals (a few constrained fits per parameter);
+    `programs`: `residual_programs` of an earlier fit on the same experiments, times and species
+    (other values), to reuse its compile."""
     fitted = fitted_parameters(chain, data, names)
     model = experiment_model(chain, data, fitted)
     sd, sd_known = _weights(data)
-    residuals, with_jacobian = residual_functions(model, data.measurements.value, sd)
+    residuals, with_jacobian = residual_functions(model, data.measurements.value, sd, programs)
     theta, iterations = levenberg_marquardt(with_jacobian, np.zeros(len(fitted.names())))
     r, jac = (np.asarray(a, float) for a in with_jacobian(theta))
     n, p = jac.shape

@@ -99,7 +99,9 @@ def run_fit(args) -> int:
     start = time.perf_counter()
     result = fit(chain, data, args.fit or None, profile=not args.no_profile)
     report = fit_report(result, data, chain.process.name, {"fit": time.perf_counter() - start})
-    posterior = posterior_from_fit(result, chain, chain.process.name)
+    summary = {key: value for key, value in report.to_json().items()
+               if key in ("parameters", "correlation", "goodness_of_fit", "experiments", "residuals")}
+    posterior = posterior_from_fit(result, chain, chain.process.name, summary)
     import json
 
     written = report.publish(args.json, {".posterior.json": json.dumps(posterior.as_dict(), indent=1).encode() + b"\n"})

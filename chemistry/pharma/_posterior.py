@@ -30,6 +30,9 @@ class Posterior(NamedTuple):
     scales: np.ndarray
     covariance: np.ndarray
     process: str
+    fit: dict | None = None
+    """The fit's summary as its JSON states it (parameters, correlation, goodness of fit,
+    experiments, residuals), for the report; None where the file carries none."""
 
     def root(self) -> np.ndarray:
         """The symmetric square root of the covariance (negative round-off eigenvalues as 0)."""
@@ -42,13 +45,13 @@ class Posterior(NamedTuple):
 
     def as_dict(self) -> dict:
         return {"format": FORMAT, "process": self.process, "names": list(self.names), "mean": self.mean.tolist(),
-                "scales": self.scales.tolist(), "covariance": self.covariance.tolist(),
+                "scales": self.scales.tolist(), "covariance": self.covariance.tolist(), "fit": self.fit,
                 "coordinates": "log_multiplier[eq]: the input itself; activation_temperature[eq]: the input [K] "
                                "divided by its scale (the fit's reference temperature [K]); a draw is mean + scales "
                                "* x with x ~ N(0, covariance)"}
 
 
-def posterior_from_fit(result, chain, process: str) -> Posterior:
+def posterior_from_fit(result, chain, process: str, summary: dict | None = None) -> Posterior:
     """The `Posterior` of a fit (`FitResult`): the fitted inputs and the internal covariance mapped linearly
     (log_multiplier = ln_k_ref + d, activation_temperature = T_a0 + d T_ref; coordinate d)."""
     fitted, theta = result.fitted, result.theta
@@ -72,7 +75,8 @@ def posterior_from_fit(result, chain, process: str) -> Posterior:
         names.append(f"activation_temperature[{equation}]"), mean.append(float(rates.activation_temperature[j]))
         scales.append(fitted.reference_temperature), rows.append(row)
     a = np.array(rows)
-    return Posterior(tuple(names), np.array(mean), np.array(scales), a @ result.theta_covariance @ a.T, process)
+    return Posterior(tuple(names), np.array(mean), np.array(scales), a @ result.theta_covariance @ a.T, process,
+                     summary)
 
 
 def write_posterior(posterior: Posterior, path) -> None:
@@ -119,7 +123,10 @@ def read_posterior(path, chain) -> Posterior:
     if np.sqrt(np.diag(covariance)).max() > 2.0:
         raise InputError(f"{label}: a standard deviation of {np.sqrt(np.diag(covariance)).max():.3g} (a factor "
                          "above e^2 on a rate); allowed: <= 2. Refit with data that determine the parameters.")
-    return Posterior(tuple(names), mean, scales, covariance, str(data.get("process", "")))
+    fit = data.get("fit")
+    if fit is not None and not isinstance(fit, dict):
+        raise InputError(f"{label}: fit = {fit!r}; allowed: the fit's summary (a mapping) or null.")
+    return Posterior(tuple(names), mean, scales, covariance, str(data.get("process", "")), fit)
 
 
 def posterior_draws(chain, inputs, posterior: Posterior, seed: int, n: int):
