@@ -7,7 +7,8 @@ import time
 
 import numpy as np
 
-from snapo_ode import Result
+from snapo_ode import InputError, Result
+from snapo_ode.cli import numbers
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -110,6 +111,58 @@ def run_fit(args) -> int:
     return 0
 
 
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class NextExperiment(Result):
+    """Candidate experiments ranked D-optimally (`_next_experiment.rank_candidates`): `ranking`
+    (best first), the `current` fit's parameters and standard errors, the `times` [min] and
+    `species` each candidate samples."""
+
+    process: str
+    criterion: str
+    current: dict
+    times: list
+    species: list
+    ranking: list
+
+    def summary(self) -> str:
+        lines = [f"{len(self.ranking)} candidates ranked by the gain of ln det(Fisher information):"]
+        for row in self.ranking[:10]:
+            worst = max(row["standard_error_ratio"].items(), key=lambda item: item[1])
+            best = min(row["standard_error_ratio"].items(), key=lambda item: item[1])
+            lines.append(f"  {row['name']} ({row['temperature_K']:.2f} K): +{row['log_det_gain']:.3f}; standard error "
+                         f"of {best[0]} x{best[1]:.3f} (the least helped: {worst[0]} x{worst[1]:.3f})")
+        return "\n".join(lines)
+
+
+def run_next_experiment(args) -> int:
+    from ._cli import chain_from_args
+    from ._experiments import read_experiments, read_lab_data
+    from ._fit import fit
+    from ._next_experiment import rank_candidates
+
+    chain, _ = chain_from_args(args)
+    species = tuple(chain.mechanism.species_names)
+    data = read_lab_data(args.experiments, args.data, chain.process, species)
+    candidates, _ = read_experiments(args.candidates, chain.process, species)
+    measured = [s.strip() for s in args.species.split(",") if s.strip()]
+    unknown = [s for s in measured if s not in species]
+    if unknown or not measured:
+        raise InputError(f"--species = {args.species!r}; allowed: species of the mechanism ({', '.join(species)}).")
+    result = fit(chain, data, args.fit or None, profile=False)
+    ranking = rank_candidates(chain, data, result, candidates, list(args.times), measured)
+    report = NextExperiment(process=chain.process.name, criterion="D-optimal: ln det(F + J_c^T J_c) - ln det F",
+                            current={name: {"estimate": float(v), "standard_error": float(s)} for name, v, s in
+                                     zip(result.names, result.estimates, result.standard_errors, strict=True)},
+                            times=list(args.times), species=measured, ranking=ranking)
+    return _finish(report, args.json)
+
+
+def _finish(report, path) -> int:
+    print(report.summary())
+    print(f"written: {report.write_json(path)}")
+    return 0
+
+
 def add_posterior_argument(parser) -> None:
     parser.add_argument("--posterior", default=None, metavar="FILE", help="draw the rate parameters from a fit's "
                         "posterior file (snapo pharma fit's .posterior.json: correlated, at the fitted values) instead "
@@ -132,6 +185,22 @@ def register_fit(cli, pharma) -> None:
                           "standard errors, correlation, Wald and profile intervals, identifiability; writes a "
                           "posterior file for design-space --posterior", group=pharma)
     add_chain_arguments(command)
+    _lab_arguments(command)
+    command.add_argument("--no-profile", action="store_true", help="skip the profile-likelihood intervals")
+    command.set_defaults(handler=run_fit)
+    following = cli.command("next-experiment", "rank candidate experiments by the expected reduction of the fitted "
+                            "parameters' uncertainty (D-optimal on the Fisher information)", group=pharma)
+    add_chain_arguments(following)
+    _lab_arguments(following)
+    following.add_argument("--candidates", required=True, metavar="FILE", help="the candidate experiments (YAML, as "
+                           "the experiments file: conditions and charges within the ranges you would run)")
+    following.add_argument("--times", type=numbers(0), default="5,10,20,30,45,60,90,120",
+                           help="sampling times of each candidate [min], comma-separated")
+    following.add_argument("--species", required=True, help="the species each candidate measures, comma-separated")
+    following.set_defaults(handler=run_next_experiment)
+
+
+def _lab_arguments(command) -> None:
     command.add_argument("--experiments", required=True, metavar="FILE", help="the experiments (YAML)")
     command.add_argument("--data", required=True, metavar="FILE", help="the measurements (CSV: experiment, time "
                          "[unit], species, value [unit], optional sd [unit])")
@@ -139,5 +208,3 @@ def register_fit(cli, pharma) -> None:
                          "log_multiplier[EQ] (its rate constant) or E_a[EQ] (its activation energy, with its rate "
                          "constant); repeatable; default: the process's uncertain rate constants, each with its "
                          "activation energy when the experiments span two temperatures")
-    command.add_argument("--no-profile", action="store_true", help="skip the profile-likelihood intervals")
-    command.set_defaults(handler=run_fit)
