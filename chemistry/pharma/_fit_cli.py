@@ -48,8 +48,12 @@ def _finite(value):
 
 
 def fit_report(result, data, process: str, seconds: dict) -> FitReport:
-    """The `FitReport` of a `FitResult` on `data` (`LabData`)."""
+    """The `FitReport` of a `FitResult` on `data` (`LabData`). `rank`: the directions the data
+    determine (standard error within `UNIDENTIFIABLE_SE`); `numerical_rank`: the singular values
+    above `RANK_TOLERANCE` of the largest."""
     import scipy.stats
+
+    from ._fit import RANK_TOLERANCE
 
     se, wald, blocked = result.standard_errors, result.wald(), result.unidentifiable()
     parameters = {}
@@ -59,7 +63,7 @@ def fit_report(result, data, process: str, seconds: dict) -> FitReport:
             "unit": "kJ/mol" if name.startswith("E_a[") else "-",
             "wald_95": None if blocked[k] else [float(v) for v in wald[k]],
             "profile_95": result.profile.get(name), "identifiable": not bool(blocked[k])}
-    scale = np.sqrt(np.outer(se, se))
+    scale = np.outer(se, se)
     correlation = np.where(scale > 0, result.covariance / np.where(scale > 0, scale, 1.0), 0.0)
     singular = result.singular_values
     m = data.measurements
@@ -77,7 +81,8 @@ def fit_report(result, data, process: str, seconds: dict) -> FitReport:
                 "sd_known": result.sd_known,
                 "p_value": float(scipy.stats.chi2.sf(result.chi_square, result.dof)) if result.sd_known else None,
                 "rms_weighted_residual": float(np.sqrt(np.mean(result.residuals ** 2)))}
-    identifiability = {"rank": int(np.sum(singular > 1e-8 * singular[0]) - len(result.null_combinations) * 0),
+    identifiability = {"rank": len(result.names) - len(result.null_combinations),
+                       "numerical_rank": int(np.sum(singular > RANK_TOLERANCE * singular[0])),
                        "parameters": len(result.names),
                        "condition_number": float(singular[0] / singular[-1]) if singular[-1] > 0 else None,
                        "singular_values": singular.tolist(), "unidentifiable": result.null_combinations,
