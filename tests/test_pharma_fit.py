@@ -3,6 +3,8 @@ central differences, its estimates against SciPy's least_squares on the same mod
 unidentifiable pair named, and the design space under the fitted covariance against full Monte
 Carlo."""
 
+import json
+
 import numpy as np
 import pytest
 import scipy.optimize
@@ -170,3 +172,25 @@ def test_design_space_under_the_posterior_agrees_with_full_monte_carlo():
     check = space.verification
     assert check["all_within_se"] and check["max_difference_over_se"] <= 1.0
     assert i != j
+
+
+def test_fit_verb_writes_the_json_and_the_posterior(chain, lab, tmp_path, capsys):
+    from snapo_ode.cli import main
+
+    data, _, _ = lab
+    paths = _write(tmp_path, experiments_yaml(data, "test"), data_csv(data))
+    lab_args = ["--experiments", str(paths[0]), "--data", str(paths[1]), *(f"--fit={name}" for name in FIT)]
+    (tmp_path / "bad.csv").write_text("experiment,time [min],species,value [mol/L]\ncold,5,Q,0.1\n")
+    assert main(["pharma", "fit", "--experiments", str(paths[0]), "--data", str(tmp_path / "bad.csv"),
+                 "--json", str(tmp_path / "bad.json")]) == 2
+    assert "bad.csv, line 2: species = 'Q'" in capsys.readouterr().err
+    assert main(["pharma", "fit", *lab_args, "--no-profile", "--json", str(tmp_path / "fit.json")]) == 0
+    written = json.loads((tmp_path / "fit.json").read_text())
+    np.testing.assert_allclose(np.diag(written["correlation"]["matrix"]), 1.0, rtol=1e-12)
+    assert written["identifiability"]["rank"] == 3 and written["goodness_of_fit"]["dof"] == 27
+    assert list(written["parameters"]) == ["ln_k_ref[A + B => P]", "log_multiplier[P => I]", "E_a[A + B => P]"]
+    posterior = read_posterior(tmp_path / "fit.posterior.json", chain)
+    assert posterior.fit["parameters"] == written["parameters"]
+    reference = fit(chain, read_lab_data(*paths, chain.process, chain.mechanism.species_names), FIT, profile=False)
+    np.testing.assert_allclose([p["estimate"] for p in written["parameters"].values()], reference.estimates,
+                               rtol=1e-9)
