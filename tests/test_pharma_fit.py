@@ -97,7 +97,8 @@ def test_written_example_files_read_back(chain, lab, tmp_path):
 
 
 def test_residual_jacobian_equals_central_differences(lab):
-    # At the bump tolerances (rtol 1e-12), so the differences' solver noise stays below the comparison's.
+    # At the bump tolerances (rtol 1e-10): the differences' solver noise (~1e-10 of a concentration over an sd of
+    # ~1e-3, divided by 2 steps) is ~1e-5 of a column's largest entry; the comparison allows 1e-4 of it.
     data, fitted, truth = lab
     chain = PharmaChain(solver=BUMP_SOLVER)
     residuals, with_jacobian = residual_functions(experiment_model(chain, data, fitted), data.measurements.value,
@@ -109,7 +110,7 @@ def test_residual_jacobian_equals_central_differences(lab):
         bump[k] = step
         central = (np.asarray(residuals(truth + bump)) - np.asarray(residuals(truth - bump))) / (2 * step)
         np.testing.assert_allclose(np.asarray(jacobian)[:, k], central, rtol=1e-5,
-                                   atol=1e-6 * np.abs(central).max())
+                                   atol=1e-4 * np.abs(central).max())
 
 
 def test_estimates_equal_scipy_least_squares(chain, lab):
@@ -194,3 +195,31 @@ def test_fit_verb_writes_the_json_and_the_posterior(chain, lab, tmp_path, capsys
     reference = fit(chain, read_lab_data(*paths, chain.process, chain.mechanism.species_names), FIT, profile=False)
     np.testing.assert_allclose([p["estimate"] for p in written["parameters"].values()], reference.estimates,
                                rtol=1e-9)
+    # The report's section: every value it shows is a path into the data, and each resolves.
+    from chemistry.pharma._report_fit import fit_data, fit_section
+    from snapo_ode import Paragraph, Table, Value
+
+    space = {"operating_probability": 0.97, "nor_min_probability": 0.9, "par_min_probability": 0.2,
+             "fraction_meeting_level": 0.5, "sigma_log_rate": 0.1, "acceptable_ranges": {}}
+    report_data = {"uncertainty_fit": fit_data(posterior, independent=space, fitted_space=space)}
+    section = fit_section(report_data)
+    assert section.title == "How the uncertainty was obtained" and fit_section({}) is None
+
+    def values(item):
+        if isinstance(item, Value):
+            yield item
+        elif isinstance(item, (tuple, list)):
+            for part in item:
+                yield from values(part)
+        elif isinstance(item, Table):
+            yield from values(item.rows)
+        elif isinstance(item, Paragraph):
+            yield from values(item.parts)
+
+    shown = list(values(section.blocks))
+    assert len(shown) > 3 * len(data.measurements.value)
+    for value in shown:
+        entry = report_data
+        for key in value.path:
+            entry = entry[key]
+        assert entry is not None, value.path

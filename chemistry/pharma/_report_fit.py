@@ -26,8 +26,11 @@ def fit_data(posterior, independent: dict, fitted_space: dict) -> dict:
                                                  "independent": independent["acceptable_ranges"]}}}
 
 
-def _interval(value) -> str:
-    return "not determined" if value is None or None in value else f"{value[0]:.5g} \u2013 {value[1]:.5g}"
+def _interval(path: tuple, value):
+    """A 95% interval's cell: low – high as values, or "not determined" (no bound from the data)."""
+    if value is None or None in value:
+        return "not determined"
+    return (V((*path, 0), ".5g"), "\u00a0\u2013\u00a0", V((*path, 1), ".5g"))
 
 
 def fit_section(data: dict) -> Section | None:
@@ -38,12 +41,13 @@ def fit_section(data: dict) -> Section | None:
     base = (KEY,)
     parameters = tuple((name, V((*base, "parameters", name, "estimate"), ".6g"), p["unit"],
                         V((*base, "parameters", name, "standard_error"), ".3g") if p["standard_error"] is not None
-                        else "-", _interval(p["wald_95"]), _interval(p["profile_95"]))
+                        else "-", _interval((*base, "parameters", name, "wald_95"), p["wald_95"]),
+                        _interval((*base, "parameters", name, "profile_95"), p["profile_95"]))
                        for name, p in fit["parameters"].items())
     names = fit["correlation"]["names"]
     correlation = tuple((name, *(V((*base, "correlation", "matrix", i, j), "+.3f") for j in range(len(names))))
                         for i, name in enumerate(names))
-    residuals = tuple((r["experiment"], f"{r['time_min']:g}", r["species"], V((*base, "residuals", k, "measured"), ".5g"),
+    residuals = tuple((r["experiment"], V((*base, "residuals", k, "time_min"), "g"), r["species"], V((*base, "residuals", k, "measured"), ".5g"),
                        V((*base, "residuals", k, "model"), ".5g"), V((*base, "residuals", k, "weighted_residual"), "+.2f"))
                       for k, r in enumerate(fit["residuals"]))
     compare = tuple((key.replace("_", " "), V((*base, "comparison", "posterior", key), ".4f"),
