@@ -258,3 +258,9 @@ def test_an_npz_of_complex_values_is_refused_not_cast(tmp_path, market):
     path = tmp_path / "complex.npz"
     np.savez(path, values=np.ones((2, 5, 14), complex), times=np.arange(5) / 12, variables=np.array(["cpi"] * 14))
     refused(lambda: load_scenarios(path, market, 4, spread=0.01), "the array 'values' holds complex128 values")
+
+
+def test_a_ragged_correlation_is_refused_naming_the_field(tmp_path):
+    # Found by the long hostile-document profile: a NumPy ValueError (an inhomogeneous shape).
+    path = fund_file(tmp_path, "      volatility: 0.15\n", "      volatility: 0.15\n  correlation: [[1, 2], [3]]\n")
+    refused(lambda: alm.load_fund(path), "market.correlation has rows of [1, 2] entries")

@@ -87,6 +87,9 @@ def _market(section: MarketSection, assets: AssetsSection, file: _Locator) -> Ma
         _keys(file, "assets.weight_bounds", assets.weight_bounds, names)
         bounds = dict(weight_low=tuple(assets.weight_bounds[a][0] for a in names),
                       weight_high=tuple(assets.weight_bounds[a][1] for a in names))
+    if section.correlation is not None and len({len(row) for row in section.correlation}) > 1:
+        raise InputError(f"{file.at('correlation')}: market.correlation has rows of "
+                         f"{sorted({len(row) for row in section.correlation})} entries; every row has one per risk driver.")
     try:
         return Market(np.asarray(section.key_tenors, float), len(section.equities),
                       correlation=None if section.correlation is None else np.asarray(section.correlation, float),

@@ -209,7 +209,8 @@ def _check_ranges(values: np.ndarray, times: np.ndarray, column: dict, equities:
         if np.any(index <= 0):
             _refuse(where, name, index, times, index <= 0, "an index > 0")
         factor = INDEX_FACTOR["cpi" if name == "cpi" else "equity"]
-        ratio = index / index[:, :1]
+        with np.errstate(over="ignore"):  # an infinite ratio is refused below like any far one
+            ratio = index / index[:, :1]
         far = (ratio > factor) | (ratio < 1 / factor)
         if np.any(far):
             _refuse(where, name, index, times, far, f"within a factor of {factor:g} of the scenario's value at time 0 "
