@@ -52,11 +52,13 @@ def fit_section(data: dict) -> Section | None:
                       for k, r in enumerate(fit["residuals"]))
     compare = tuple((key.replace("_", " "), V((*base, "comparison", "posterior", key), ".4f"),
                      V((*base, "comparison", "independent", key), ".4f")) for key in COMPARED)
+    goodness = (("(", V((*base, "goodness_of_fit", "chi_square"), ".4g"), " chi-square on ",
+                 V((*base, "goodness_of_fit", "dof"), "d"), " degrees of freedom)")
+                if fit["goodness_of_fit"] else ("(the posterior file carries no summary of the fit)",))
     return Section("How the uncertainty was obtained", (
         Paragraph(("The rate parameters' uncertainty is the posterior of a weighted least-squares fit of the "
-                   "process's kinetics to lab experiments (", V((*base, "goodness_of_fit", "chi_square"), ".4g"),
-                   " chi-square on ", V((*base, "goodness_of_fit", "dof"), "d"), " degrees of freedom). The design "
-                   "space draws the parameters from it, correlated, at the fitted values.")),
+                   "process's kinetics to lab experiments ", *goodness, ". The design space draws the parameters "
+                   "from it, correlated, at the fitted values.")),
         Table(("parameter", "estimate", "unit", "standard error", "95% (Wald)", "95% (profile likelihood)"),
               parameters, ("The fitted parameters",), csv="fit_parameters.csv"),
         Table(("", *names), correlation, ("Their correlation matrix",)),
