@@ -1,4 +1,4 @@
-"""The six notebooks: committed without outputs, each with its small size (`SNAPO_NOTEBOOK_SMALL`),
+"""The seven notebooks: committed without outputs, each with its small size (`SNAPO_NOTEBOOK_SMALL`),
 checked by `make test`; run end to end at that size by `make docs` (which CI runs after
 `make test`: a cell that raises fails the site's build, a page without a figure or with output on
 stderr too) and by `make test-slow`, in the kernels' environment of the site's build."""
@@ -14,7 +14,7 @@ NAMES = sorted(path.name for path in NOTEBOOKS.glob("*.ipynb"))
 
 
 def test_the_notebooks_are_committed_without_outputs_and_have_a_small_size():
-    assert len(NAMES) == 6
+    assert len(NAMES) == 7
     for name in NAMES:
         cells = [cell for cell in json.loads((NOTEBOOKS / name).read_text())["cells"] if cell["cell_type"] == "code"]
         assert all(not cell.get("outputs") and cell.get("execution_count") is None for cell in cells), name

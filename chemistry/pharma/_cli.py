@@ -8,6 +8,7 @@ import sys
 
 from snapo_ode.cli import count, number, numbers, positive, add_device_options, add_training_options
 
+from ._fit_cli import add_posterior_argument, posterior_option, register_fit
 from ._process_file import CPP_RANGES
 
 
@@ -131,7 +132,7 @@ def run_design_space(args) -> int:
 
     options = _space_options(args)
     chain, inputs = chain_from_args(args)
-    space = design_space(chain, inputs, **options)
+    space = design_space(chain, inputs, **options, **posterior_option(args, chain))
     return _finish(space, args.json) if is_writer() else 0
 
 
@@ -143,7 +144,8 @@ def run_report(args) -> int:
     options = _space_options(args)
     chain, inputs = chain_from_args(args)
     data = build_report(chain, inputs, repeats=args.repeats, max_solver_error=args.max_solver_error,
-                        check_warnings=lambda warnings: check_solver_errors(args, warnings), **options)
+                        check_warnings=lambda warnings: check_solver_errors(args, warnings), **options,
+                        **posterior_option(args, chain))
     from snapo_ode import is_writer
 
     if not is_writer():
@@ -166,6 +168,7 @@ def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
                         help="coarse grid per CPP of the surrogate's second-order term (0: first order)")
     parser.add_argument("--verify-points", type=count(), default=9, help="grid points checked by full Monte Carlo")
     parser.add_argument("--samples", type=count(), default=1000, help="full-model draws at each verification point")
+    add_posterior_argument(parser)
 
 
 def run_bench(args) -> int:
@@ -220,6 +223,7 @@ def register_pharma(cli) -> None:
     add_design_space_arguments(space)
     add_device_options(space)
     space.set_defaults(handler=run_design_space)
+    register_fit(cli, pharma)
     report = cli.report("pharma", "the ICH Q8 sensitivity and design-space report: report.html, report.pdf "
                         "(printed from it), CSV files, report.json")
     add_chain_arguments(report)

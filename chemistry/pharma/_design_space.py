@@ -33,6 +33,7 @@ from ._cqa import meets_specs, spec_margins
 from ._design_edges import acceptable_range, choose_verification_points, probability_se
 from ._parameters import ChainInputs, CPPs
 from ._process_file import CPP_NAMES
+from ._posterior import posterior_draws, posterior_summary
 from ._sensitivities import input_names, jacobians_function, rate_names, shifted_cqas
 from ._surrogate import (
     curvature, grid_inputs, input_offsets, interpolate, log_scales, log_sensitivities, surrogate_cqas)
@@ -82,6 +83,9 @@ class DesignSpace(Result):
     edges: dict
     verification: dict
     seconds: dict
+    uncertainty: dict | None = None
+    """How the uncertain inputs were drawn: None for independent normals of `sigma_log_rate` on
+    each ln k; with a posterior file, {source: "posterior", file, names, mean, covariance}."""
 
     def summary(self) -> str:
         check = self.verification
@@ -144,7 +148,7 @@ class DesignSpaceSettings(Settings):
 def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None = None, y: str | None = None,
                  points: int = 21, level: float = 0.95, sigma: float = 0.1, seed: int = 0,
                  surrogate_samples: int = 4096, verify_points: int = 9, samples: int = 1000,
-                 uncertain=None, curvature_points: int = 6, mesh=None) -> DesignSpace:
+                 uncertain=None, curvature_points: int = 6, mesh=None, posterior=None) -> DesignSpace:
     """The design space of CPPs `x` and `y` (default: the process's first and last CPP) on a
     `points` x `points` grid over their PARs, at `cpps` (`CPPs`, the other inputs the process
     file's; or the `ChainInputs` themselves, used as given).
@@ -156,7 +160,9 @@ def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None 
     the full model is run by Monte Carlo (the operating point first), `samples` draws each;
     `curvature_points`: the coarse grid (per CPP) of the surrogate's second-order term (0: first
     order only); `mesh`: the devices the grid points, the curvature's Jacobians and the full
-    model's Monte Carlo draws split over (`snapo_ode.sample_mesh`).
+    model's Monte Carlo draws split over (`snapo_ode.sample_mesh`); `posterior`: a fit's
+    `Posterior` (`_posterior`), whose correlated draws replace `sigma` and `uncertain`, the rates
+    at its mean (`sigma` then only sets the curvature's step).
 
     **Returns:** a `DesignSpace`.
 
@@ -169,12 +175,17 @@ def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None 
     inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
     cpps, ranges = inputs.cpps, {r.name: r for r in chain.cpp_ranges}
     xs, ys = np.linspace(*ranges[x].par, points), np.linspace(*ranges[y].par, points)
-    uncertain = list(default_uncertain(chain) if uncertain is None else uncertain)
-    for name in uncertain:
-        check_choice("uncertain", name, tuple(n for n in input_names(chain)[len(names):]
-                                              if n.startswith("log_multiplier[") or not n.endswith("]")))
-    scales = log_scales(chain, inputs, uncertain)
-    draws = sigma * np.asarray(jax.random.normal(jax.random.key(seed), (max(surrogate_samples, samples), len(uncertain))))
+    if posterior is not None:
+        inputs, uncertain, scales, draws = posterior_draws(chain, inputs, posterior, seed,
+                                                           max(surrogate_samples, samples))
+    else:
+        uncertain = list(default_uncertain(chain) if uncertain is None else uncertain)
+        for name in uncertain:
+            check_choice("uncertain", name, tuple(n for n in input_names(chain)[len(names):]
+                                                  if n.startswith("log_multiplier[") or not n.endswith("]")))
+        scales = log_scales(chain, inputs, uncertain)
+        draws = sigma * np.asarray(jax.random.normal(jax.random.key(seed), (max(surrogate_samples, samples),
+                                                                              len(uncertain))))
 
     start = time.perf_counter()
     evaluate_many = jacobians_function(chain, True, "reverse", mesh)
@@ -223,7 +234,8 @@ def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None 
         acceptable_ranges={x: range_x.interval, y: range_y.interval},
         edges={x: range_x.as_dict(), y: range_y.as_dict()},
         verification=verification,
-        seconds={"surrogate": surrogate_seconds, "monte_carlo": time.perf_counter() - start})
+        seconds={"surrogate": surrogate_seconds, "monte_carlo": time.perf_counter() - start},
+        uncertainty=None if posterior is None else posterior_summary(posterior))
 
 
 def _verify(chain, inputs, x, y, xs, ys, chosen, draws, surrogate, probability, uncertain, scales, mesh) -> dict:

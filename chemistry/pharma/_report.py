@@ -15,6 +15,7 @@ from ._balances import balance_table
 from ._chain import PharmaChain
 from ._design_space import design_space
 from ._parameters import ChainInputs, CPPs
+from ._report_fit import fit_data
 from ._study import MAX_SOLVER_ERROR, REFERENCE, sensitivity_study
 from ._verification import cantera_check, stiffness_ratio
 
@@ -58,13 +59,14 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
                  samples: int = 1000, surrogate_samples: int = 4096, curvature_points: int = 6, level: float = 0.95,
                  sigma: float = 0.1, x: str | None = None, y: str | None = None, seed: int = 0, repeats: int = 5,
                  mechanism_path=None, max_solver_error: float = MAX_SOLVER_ERROR, check_warnings=None,
-                 mesh=None) -> dict:
+                 mesh=None, posterior=None) -> dict:
     """Every number of the report, as the JSON document's data (see docs/pharma.md), at `cpps`
     (`CPPs`, the other inputs the process file's; or the `ChainInputs` themselves); solver
     errors against the tight reference above `max_solver_error` are warnings in it, handed to
     `check_warnings(warnings)` (which may raise) before the design space is computed. R1 is
     checked against Cantera on `mechanism_path` (default: the process's mechanism), and so is every
-    reactor against Cantera's own; every unit's mass balance is stated."""
+    reactor against Cantera's own; every unit's mass balance is stated. With a fit's `posterior`
+    the design space draws from it, and the data gain the fit's section (`_report_fit`)."""
     start = time.perf_counter()
     inputs = cpps if isinstance(cpps, ChainInputs) else chain.inputs(cpps)
     cpps = inputs.cpps
@@ -76,7 +78,11 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
     cantera = cantera_check(chain.with_solver(REFERENCE), cpps, inputs.physical, mechanism_path)
     space = design_space(chain, inputs, x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
                          surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
-                         curvature_points=curvature_points, mesh=mesh).to_json()
+                         curvature_points=curvature_points, mesh=mesh, posterior=posterior).to_json()
+    fitted = None if posterior is None else fit_data(posterior, fitted_space=space, independent=design_space(
+        chain, inputs, x=x, y=y, points=points, level=level, sigma=sigma, seed=seed,
+        surrogate_samples=surrogate_samples, verify_points=verify_points, samples=samples,
+        curvature_points=curvature_points, mesh=mesh).to_json())
     space.update(grid_size=points, verification_count=len(space["verification"]["points"]),
                  uncertain_text=", ".join(space["uncertain"]))
     values = study["cpps"]
@@ -94,6 +100,7 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
         "mass_balances": balance_table(chain, inputs),
         "sensitivities": study,
         "design_space": space,
+        "uncertainty_fit": fitted,
         "verification": {
             "max_rel_diff_fd": study["max_rel_diff_fd"],
             "max_rel_diff_fd_parameters": study["max_rel_diff_fd_parameters"],

@@ -222,5 +222,8 @@ def methods_section(data: dict) -> Section:
 
 
 def sections(data: dict) -> tuple[Section, ...]:
+    from ._report_fit import fit_section
+
+    fit = fit_section(data)
     return (executive_summary(data), process_section(data), nominal_section(data), balance_section(data),
-            sensitivity_section(data), design_space_section(data), methods_section(data))
+            sensitivity_section(data), design_space_section(data), *([fit] if fit else []), methods_section(data))

@@ -22,8 +22,10 @@ from ._sensitivities import input_names, named_jacobian
 
 
 def is_log_input(name: str) -> bool:
-    """A log-multiplier is ln k itself; other uncertain inputs are rate constants k."""
-    return name.startswith("log_multiplier[")
+    """An input that moves additively by its scale times the coordinate: a log-multiplier (ln k
+    itself, scale 1) or an activation temperature (a posterior's, scaled by the fit's reference
+    temperature); other uncertain inputs are rate constants k, moved by k0 (e^d - 1)."""
+    return name.startswith(("log_multiplier[", "activation_temperature["))
 
 
 def log_scales(chain: PharmaChain, inputs: ChainInputs, uncertain) -> np.ndarray:
@@ -37,7 +39,7 @@ def input_offsets(uncertain, scales: np.ndarray, draws: np.ndarray) -> np.ndarra
     """The change of each uncertain input when ln k moves by `draws` (..., m): the draw for a
     log-multiplier, k0 (e^d - 1) for a rate constant."""
     is_log = np.array([is_log_input(name) for name in uncertain])
-    return np.where(is_log, draws, scales * np.expm1(draws))
+    return np.where(is_log, scales * draws, scales * np.expm1(draws))
 
 
 def grid_inputs(inputs: ChainInputs, x: str, y: str, vx: float, vy: float) -> ChainInputs:

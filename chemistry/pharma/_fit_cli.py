@@ -1,0 +1,215 @@
+"""`snapo pharma fit`: kinetics fitted to lab data, its JSON (`FitReport`) and the posterior file
+beside it (`.posterior.json`), which `snapo pharma design-space --posterior` and `snapo report
+pharma --posterior` draw from."""
+
+import dataclasses
+import time
+
+import numpy as np
+
+from snapo_ode import InputError, Result
+from snapo_ode.cli import numbers
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class FitReport(Result):
+    """A fit as the JSON states it: `parameters` (name -> estimate, standard_error, wald_95,
+    profile_95, identifiable), `correlation` (names and matrix), `goodness_of_fit` (chi-square,
+    dof, p-value, scale), `identifiability` (rank, condition number, singular values, the
+    combinations the data cannot determine), `experiments` (name -> unit, temperature,
+    measurements, RMS weighted residual), `residuals` (per measurement), `reference_temperature`
+    [K], `seconds`."""
+
+    process: str
+    parameters: dict
+    correlation: dict
+    goodness_of_fit: dict
+    identifiability: dict
+    reference_temperature: float
+    experiments: dict
+    residuals: list
+    seconds: dict
+
+    def summary(self) -> str:
+        lines = [f"fit of {len(self.parameters)} parameters to {len(self.residuals)} measurements: chi-square "
+                 f"{self.goodness_of_fit['chi_square']:.4g} on {self.goodness_of_fit['dof']} dof (p = "
+                 f"{self.goodness_of_fit['p_value']:.3g})"]
+        for name, p in self.parameters.items():
+            wald = "not identifiable" if p["wald_95"] is None else f"[{p['wald_95'][0]:.5g}, {p['wald_95'][1]:.5g}]"
+            lines.append(f"  {name} = {p['estimate']:.6g} +/- {p['standard_error']:.3g} ({p['unit']}), 95% {wald}")
+        for combination in self.identifiability["unidentifiable"]:
+            terms = " + ".join(f"{v:.2f} {k}" for k, v in combination["coefficients"].items())
+            lines.append(f"  the data cannot determine: {terms}")
+        return "\n".join(lines)
+
+
+def _finite(value):
+    return None if value is None or not np.isfinite(value) else float(value)
+
+
+def fit_report(result, data, process: str, seconds: dict) -> FitReport:
+    """The `FitReport` of a `FitResult` on `data` (`LabData`). `rank`: the directions the data
+    determine (standard error within `UNIDENTIFIABLE_SE`); `numerical_rank`: the singular values
+    above `RANK_TOLERANCE` of the largest."""
+    import scipy.stats
+
+    from ._fit import RANK_TOLERANCE
+
+    se, wald, blocked = result.standard_errors, result.wald(), result.unidentifiable()
+    parameters = {}
+    for k, name in enumerate(result.names):
+        parameters[name] = {
+            "estimate": float(result.estimates[k]), "standard_error": _finite(se[k]),
+            "unit": "kJ/mol" if name.startswith("E_a[") else "-",
+            "wald_95": None if blocked[k] else [float(v) for v in wald[k]],
+            "profile_95": result.profile.get(name), "identifiable": not bool(blocked[k])}
+    scale = np.outer(se, se)
+    correlation = np.where(scale > 0, result.covariance / np.where(scale > 0, scale, 1.0), 0.0)
+    singular = result.singular_values
+    m = data.measurements
+    experiments = {}
+    for e, experiment in enumerate(data.experiments):
+        rows = m.experiment == e
+        experiments[experiment.name] = {"unit": experiment.unit, "temperature_K": experiment.temperature,
+                                        "charges_mol_per_L": experiment.charges, "measurements": int(rows.sum()),
+                                        "rms_weighted_residual": float(np.sqrt(np.mean(result.residuals[rows] ** 2)))}
+    residuals = [{"experiment": data.experiments[e].name, "time_min": float(t), "species": s, "measured": float(v),
+                  "model": float(p), "weighted_residual": float(r), "line": int(line)}
+                 for e, t, s, v, p, r, line in zip(m.experiment, m.time, m.species, m.value, result.predictions,
+                                                   result.residuals, m.line, strict=True)]
+    goodness = {"chi_square": result.chi_square, "dof": result.dof, "scale": result.scale,
+                "sd_known": result.sd_known,
+                "p_value": float(scipy.stats.chi2.sf(result.chi_square, result.dof)) if result.sd_known else None,
+                "rms_weighted_residual": float(np.sqrt(np.mean(result.residuals ** 2)))}
+    identifiability = {"rank": len(result.names) - len(result.null_combinations),
+                       "numerical_rank": int(np.sum(singular > RANK_TOLERANCE * singular[0])),
+                       "parameters": len(result.names),
+                       "condition_number": float(singular[0] / singular[-1]) if singular[-1] > 0 else None,
+                       "singular_values": singular.tolist(), "unidentifiable": result.null_combinations,
+                       "identifiable": not result.null_combinations}
+    return FitReport(process=process, parameters=parameters,
+                     correlation={"names": list(result.names), "matrix": correlation.tolist()},
+                     goodness_of_fit=goodness, identifiability=identifiability,
+                     reference_temperature=result.fitted.reference_temperature, experiments=experiments,
+                     residuals=residuals, seconds=seconds)
+
+
+def run_fit(args) -> int:
+    from ._cli import chain_from_args
+    from ._experiments import read_lab_data
+    from ._fit import fit
+    from ._posterior import posterior_from_fit
+
+    chain, _ = chain_from_args(args)
+    data = read_lab_data(args.experiments, args.data, chain.process, tuple(chain.mechanism.species_names))
+    start = time.perf_counter()
+    result = fit(chain, data, args.fit or None, profile=not args.no_profile)
+    report = fit_report(result, data, chain.process.name, {"fit": time.perf_counter() - start})
+    summary = {key: value for key, value in report.to_json().items()
+               if key in ("parameters", "correlation", "goodness_of_fit", "experiments", "residuals")}
+    posterior = posterior_from_fit(result, chain, chain.process.name, summary)
+    import json
+
+    written = report.publish(args.json, {".posterior.json": json.dumps(posterior.as_dict(), indent=1).encode() + b"\n"})
+    print(report.summary())
+    print(f"written: {', '.join(map(str, written))}")
+    return 0
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class NextExperiment(Result):
+    """Candidate experiments ranked D-optimally (`_next_experiment.rank_candidates`): `ranking`
+    (best first), the `current` fit's parameters and standard errors, the `times` [min] and
+    `species` each candidate samples."""
+
+    process: str
+    criterion: str
+    current: dict
+    times: list
+    species: list
+    ranking: list
+
+    def summary(self) -> str:
+        lines = [f"{len(self.ranking)} candidates ranked by the gain of ln det(Fisher information):"]
+        for row in self.ranking[:10]:
+            worst = max(row["standard_error_ratio"].items(), key=lambda item: item[1])
+            best = min(row["standard_error_ratio"].items(), key=lambda item: item[1])
+            lines.append(f"  {row['name']} ({row['temperature_K']:.2f} K): +{row['log_det_gain']:.3f}; standard error "
+                         f"of {best[0]} x{best[1]:.3f} (the least helped: {worst[0]} x{worst[1]:.3f})")
+        return "\n".join(lines)
+
+
+def run_next_experiment(args) -> int:
+    from ._cli import chain_from_args
+    from ._experiments import read_experiments, read_lab_data
+    from ._fit import fit
+    from ._next_experiment import rank_candidates
+
+    chain, _ = chain_from_args(args)
+    species = tuple(chain.mechanism.species_names)
+    data = read_lab_data(args.experiments, args.data, chain.process, species)
+    candidates, _ = read_experiments(args.candidates, chain.process, species)
+    measured = [s.strip() for s in args.species.split(",") if s.strip()]
+    unknown = [s for s in measured if s not in species]
+    if unknown or not measured:
+        raise InputError(f"--species = {args.species!r}; allowed: species of the mechanism ({', '.join(species)}).")
+    result = fit(chain, data, args.fit or None, profile=False)
+    ranking = rank_candidates(chain, data, result, candidates, list(args.times), measured)
+    report = NextExperiment(process=chain.process.name, criterion="D-optimal: ln det(F + J_c^T J_c) - ln det F",
+                            current={name: {"estimate": float(v), "standard_error": float(s)} for name, v, s in
+                                     zip(result.names, result.estimates, result.standard_errors, strict=True)},
+                            times=list(args.times), species=measured, ranking=ranking)
+    return _finish(report, args.json)
+
+
+def _finish(report, path) -> int:
+    print(report.summary())
+    print(f"written: {report.write_json(path)}")
+    return 0
+
+
+def add_posterior_argument(parser) -> None:
+    parser.add_argument("--posterior", default=None, metavar="FILE", help="draw the rate parameters from a fit's "
+                        "posterior file (snapo pharma fit's .posterior.json: correlated, at the fitted values) instead "
+                        "of independent ln k with --sigma")
+
+
+def posterior_option(args, chain) -> dict:
+    """{"posterior": the file read against `chain`} where `--posterior` is given, else {}."""
+    if getattr(args, "posterior", None) is None:
+        return {}
+    from ._posterior import read_posterior
+
+    return {"posterior": read_posterior(args.posterior, chain)}
+
+
+def register_fit(cli, pharma) -> None:
+    from ._cli import add_chain_arguments
+
+    command = cli.command("fit", "fit the process's kinetics to lab data (experiments file, data file): estimates, "
+                          "standard errors, correlation, Wald and profile intervals, identifiability; writes a "
+                          "posterior file for design-space --posterior", group=pharma)
+    add_chain_arguments(command)
+    _lab_arguments(command)
+    command.add_argument("--no-profile", action="store_true", help="skip the profile-likelihood intervals")
+    command.set_defaults(handler=run_fit)
+    following = cli.command("next-experiment", "rank candidate experiments by the expected reduction of the fitted "
+                            "parameters' uncertainty (D-optimal on the Fisher information)", group=pharma)
+    add_chain_arguments(following)
+    _lab_arguments(following)
+    following.add_argument("--candidates", required=True, metavar="FILE", help="the candidate experiments (YAML, as "
+                           "the experiments file: conditions and charges within the ranges you would run)")
+    following.add_argument("--times", type=numbers(0), default="5,10,20,30,45,60,90,120",
+                           help="sampling times of each candidate [min], comma-separated")
+    following.add_argument("--species", required=True, help="the species each candidate measures, comma-separated")
+    following.set_defaults(handler=run_next_experiment)
+
+
+def _lab_arguments(command) -> None:
+    command.add_argument("--experiments", required=True, metavar="FILE", help="the experiments (YAML)")
+    command.add_argument("--data", required=True, metavar="FILE", help="the measurements (CSV: experiment, time "
+                         "[unit], species, value [unit], optional sd [unit])")
+    command.add_argument("--fit", action="append", default=[], metavar="NAME", help="a parameter to fit: "
+                         "log_multiplier[EQ] (its rate constant) or E_a[EQ] (its activation energy, with its rate "
+                         "constant); repeatable; default: the process's uncertain rate constants, each with its "
+                         "activation energy when the experiments span two temperatures")
