@@ -90,11 +90,25 @@ def test_gas_report(gas_dir):
                                          "Facility sensitivities", "Methods", "Provenance"]
     ladder = doc["monthly_ladder"]
     assert len(ladder) == 12 and ladder[0]["first_day"] == 0 and ladder[-1]["last_day"] == 364
+    # The sample's calendar (1 April, an illustrative year) and units, the desk's names for the inputs.
+    assert [ladder[0]["month_name"], ladder[-1]["month_name"]] == ["Apr 2025", "Mar 2026"]
+    assert ladder[0]["last_day"] == 29 and ladder[-1]["first_day"] == 365 - 31
+    text = check_reader(page)
+    assert "This is the intrinsic value" in text and "USD/MMBtu" in text and "$" not in text
+    names = {row["input"]: row["name"] for row in doc["facility_sensitivities"]}
+    assert names["capacity"] == "working gas capacity"
+    assert names["injection_ratchet[1][0]"] == "injection ratchet, point 2, fill level"
+    assert all("[" not in name and "_" not in name for name in names.values())
     assert sum(r["delta"] for r in ladder) == pytest.approx(sum(doc["deltas"]))
     assert not doc["lsmc_run"] and not doc["has_dual_bound"]
     assert len(doc["facility_sensitivities"]) == len(doc["parameter_sensitivities"])
     if HAS_CHROMIUM:
         check_pdf(gas_dir, doc, page)
+
+
+def test_gas_report_refuses_a_unit_that_is_not_one(capsys):
+    assert main(["report", "gas", "--out", "unused", "--currency", "U S D"]) == 2
+    assert "--currency = 'U S D' is not a unit" in capsys.readouterr().err
 
 
 def test_gas_report_reads_the_optional_lsmc_fields_when_present():
@@ -104,7 +118,9 @@ def test_gas_report_reads_the_optional_lsmc_fields_when_present():
     from finance.gas_storage._report import ladder, months
     from finance.gas_storage._report_content import sections
 
-    assert months(365, datetime.date(2005, 7, 1))[0] == {"month": "2005-07", "first_day": 0, "last_day": 30}
+    assert months(365, datetime.date(2005, 7, 1))[0] == {"month": "2005-07", "month_name": "Jul 2005", "first_day": 0,
+                                                         "last_day": 30}
+    assert months(40, None)[1] == {"month": "month 2 (days 31-39)", "month_name": "month 2", "first_day": 31, "last_day": 39}
     data = {"deltas": [1.0] * 59, "lp_envelope_deltas": [2.0] * 59, "lsmc_pathwise_deltas": [3.0] * 59,
             "schedule": {"injection": [0.0] * 59, "withdrawal": [1.0] * 59, "inventory": [5.0] * 60}}
     rows = ladder(data, None)
@@ -119,6 +135,7 @@ def _gas_stub() -> dict:
                                  "dual_upper_bound_se", "snapo_gap", "lsmc_gap", "snapo_gap_se", "lsmc_gap_se",
                                  "snapo_value_control_variate", "snapo_value_control_variate_se",
                                  "lsmc_value_control_variate", "lsmc_value_control_variate_se")}
-    stub.update(lsmc_run=True, has_dual_bound=True, largest_month={"month": "m", "delta": 1.0}, forward_curve=[1.0] * 59,
+    stub.update(lsmc_run=True, has_dual_bound=True, largest_month={"month": "m", "month_name": "m", "delta": 1.0},
+                currency="EUR", energy_unit="MWh", price_unit="EUR/MWh", mode="stochastic", forward_curve=[1.0] * 59,
                 schedule={"inventory": [1.0] * 60}, lp_schedule={"inventory": [1.0] * 60}, facility_sensitivities=[])
     return stub
