@@ -60,7 +60,7 @@ def executive_summary(data: dict) -> Section:
         V(("summary", "impact_thresholds", "high"), "g"), ", medium from ",
         V(("summary", "impact_thresholds", "medium"), "g"), "). The full model's grade is the one to act on: "
         "where a CQA is curved over the PAR the linearised one understates it"))
-    mapped = Paragraph(("What was mapped: the design space is over ", x, " and ", y, " (",
+    mapped_note = Paragraph(("What was mapped: the design space is over ", x, " and ", y, " (",
                         V(("mapped", "count"), "d"), " of the ", V(("mapped", "of"), "d"), " CPPs); ",
                         *_held(data), ". Their own ranges are covered by the criticality table above, by the full "
                         "model at each end of the PAR, one CPP at a time."), "note")
@@ -78,7 +78,7 @@ def executive_summary(data: dict) -> Section:
                           "NOR to edge below", "NOR to edge above"), tuple(ranges), (
         "Proven acceptable ranges and the margin to the edge of failure (P(all specs) = level) along the grid lines "
         "through the operating point; n/a: no edge inside the PAR",))
-    return Section("Executive summary", (cards, *findings, mapped, impact, ranges_table, Paragraph((
+    return Section("Executive summary", (cards, *findings, mapped_note, impact, ranges_table, Paragraph((
         "Verification: the map agrees with full Monte Carlo at every verification point within one standard "
         "error: ", V((*ds, "verification", "all_within_se")), ". See the design space and the methods.",), "note")))
 
@@ -229,10 +229,10 @@ def methods_section(data: dict) -> Section:
                  ("Validation: numerical only (the solver against a reference solver, every reactor against "
                   "Cantera's, the sensitivities against central differences, the map against full Monte Carlo, "
                   "below). The model is not validated here against batch data: before the design space is filed, "
-                  "its predictions should be compared with the development batches."),
+                  "its predictions should be compared with the development batches.",),
                  ("Limitations: the model holds inside the CPPs' physical limits (a solvent's freezing and boiling "
                   "points); outside the PARs the map is an extrapolation; effects the process file does not name "
-                  "(fouling, scale-up mixing, impurities in the feed) are not modelled."))),
+                  "(fouling, scale-up mixing, impurities in the feed) are not modelled.",))),
         Heading("Sensitivities"),
         Paragraph(("The Jacobian of the CQAs with respect to every input (CPPs, rate parameters, physical "
                    "parameters) is taken in ", V(("sensitivities", "mode")), " mode, ",
