@@ -30,15 +30,15 @@ def executive_summary(data: dict) -> Section:
         ". The CQA nearest its limit is ", V(("summary", "closest_cqa")), ", at ",
         V(("summary", "cqas", summary["closest_cqa"], "relative_margin"), ".1%"), " of the limit from it. "
         "Under the stated uncertainty of the rate constants, the probability that every CQA is within its "
-        "specification is ", V((*ds, "operating_probability"), ".4f"), " at the operating point and at least ",
-        V((*ds, "nor_min_probability"), ".4f"), " over the normal operating ranges of ", x, " and ", y,
+        "specification is ", V((*ds, "operating_probability"), ".2%"), " at the operating point and at least ",
+        V((*ds, "nor_min_probability"), ".2%"), " over the normal operating ranges of ", x, " and ", y,
         "; the design space (probability at least ", V((*ds, "level"), "g"), ") covers ",
         V((*ds, "fraction_meeting_level"), ".0%"), " of their proven acceptable ranges."), "finding")]
     cards = Highlights((
-        ("P(all specs) at the operating point", V((*ds, "operating_probability"), ".4f"), ("surrogate map",)),
-        ("Least P(all specs) over the NOR box", V((*ds, "nor_min_probability"), ".4f"),
+        ("P(all specs) at the operating point", V((*ds, "operating_probability"), ".2%"), ("surrogate map",)),
+        ("Least P(all specs) over the NOR box", V((*ds, "nor_min_probability"), ".2%"),
          ("level ", V((*ds, "level"), "g"))),
-        ("Map against full Monte Carlo", V((*ds, "verification", "max_difference_over_se"), ".2f"),
+        ("Map against full Monte Carlo", V((*ds, "verification", "max_difference_over_se"), ".2f", " standard errors"),
          ("largest difference in standard errors, over ", V((*ds, "verification", "samples"), "d"), " draws at each of ",
           V(("design_space", "verification_count"), "d"), " points")),
         ("Sensitivities against central differences", V(("verification_digits", "max_rel_diff_fd"), ".1f", " digits"),
