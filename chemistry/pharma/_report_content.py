@@ -167,10 +167,10 @@ def design_space_section(data: dict) -> Section:
         Paragraph(("The probability that every CQA meets its specification when the uncertain rate constants vary "
                    "(log-normal, standard deviation of ln k ", V((*ds, "sigma_log_rate"), "g"), "), on a grid of ",
                    V((*ds, "grid_size"), "d"), " by ", V((*ds, "grid_size"), "d"), " points over the PARs of ",
-                   V((*ds, "x")), " and ", V((*ds, "y")), ", the other CPPs at the operating point. The black contour "
-                   "is the edge of the design space at probability ", V((*ds, "level"), "g"), "; dashed contours show "
-                   "where each CQA alone reaches that probability, so the CQA that sets each part of the edge can "
-                   "be read off."),),
+                   V((*ds, "x")), " and ", V((*ds, "y")), ", the other CPPs at the operating point. The wide grey "
+                   "contour is the edge of the design space at probability ", V((*ds, "level"), "g"), "; each CQA's "
+                   "own dashed contour, where that CQA alone reaches that probability, is drawn over it and labelled "
+                   "with the CQA's name, so the CQA that sets each part of the edge can be read off."),),
         Figure.from_matplotlib(design_space_figure(data), ("Design space: P(all specs) from the surrogate (",
                                                              V((*ds, "surrogate_samples"), "d"), " draws), "
                                                              "NOR and PAR boxes, and the points checked by full Monte "
