@@ -91,7 +91,9 @@ def expected_text(value, fmt: str) -> str:
         return "yes" if value else "no"
     if isinstance(value, str):
         return value
-    return format(value, fmt)
+    text = format(value, fmt)
+    # Rounded to zero, a number shows no minus sign.
+    return text.lstrip("-") if re.fullmatch(r"-[0.,]+(%|e[-+]\d+)?", text) else text
 
 
 def lookup(doc, path):
@@ -122,6 +124,8 @@ def check_html(directory) -> tuple[dict, Page]:
 
 # A number in bare scientific notation ("1.2e-05"): a reader is owed a rounded figure with its unit.
 SCIENTIFIC = re.compile(r"(?<![\w.])[-+\u2212]?\d+(?:\.\d+)?[eE][-+\u2212]?\d+\b")
+# A number rounded to zero that keeps its minus sign ("-0.000").
+NEGATIVE_ZERO = re.compile(r"(?<![\w.])[-\u2212]0(?:\.0+)?(?![\d.])")
 # A path of the repository, the environment or a module: a reader's report names none.
 REPOSITORY_PATH = re.compile(r"/work/|site-packages|/tmp/|\b[\w/]+\.py\b")
 # A key figure reads with its unit: after the number (a word or a symbol), a percentage, or a value
@@ -135,6 +139,7 @@ def check_reader(page: Page) -> str:
     path, and every key figure with its unit."""
     text = " ".join(" ".join(page.body).split())
     assert SCIENTIFIC.findall(text) == [], f"bare scientific notation in the body: {SCIENTIFIC.findall(text)[:10]}"
+    assert NEGATIVE_ZERO.findall(text) == [], f"a negative zero in the body: {NEGATIVE_ZERO.findall(text)[:5]}"
     paths = [text[max(m.start() - 30, 0):m.end() + 10] for m in REPOSITORY_PATH.finditer(text)]
     assert paths == [], f"repository paths in the body: {paths[:5]}"
     assert page.cards, "no key figures"

@@ -123,6 +123,7 @@ def _page(html: str) -> Page:
 
 @pytest.mark.parametrize("body, defect", [
     ("<p>a step of 1.2e-05 m</p>", "scientific"),
+    ("<p>a duration of -0.000 years</p>", "negative zero"),
     ("<p>written by /work/x/snapo_ode/cli.py</p>", "paths"),
     ("<p>installed in lib/python3/site-packages</p>", "paths"),
     ("<p>see finance/alm/_report.py</p>", "paths"),
@@ -134,3 +135,11 @@ def test_the_reader_check_fails_on_each_defect(body, defect):
     assert "5%" in check_reader(clean)  # the provenance may name files and raw numbers
     with pytest.raises(AssertionError, match=defect):
         check_reader(_page(f"<h1>T</h1>{card}<h2>Summary</h2>{body}<h2>Provenance</h2>"))
+
+
+def test_a_number_rounded_to_zero_reads_without_a_minus_sign():
+    from snapo_ode._runtime.report_model import format_value
+
+    assert [format_value(v, f) for v, f in ((-0.0004, ".3f"), (-1e-9, ".1%"), (-0.0, "+.2f"), (-0.004, ".2f"),
+                                            (-0.006, ".2f"), (-12.0, ",.0f"))] == ["0.000", "0.0%", "0.00",
+                                                                                   "0.00", "-0.01", "-12"]
