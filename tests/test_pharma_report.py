@@ -12,7 +12,7 @@ import pytest
 import snapo_ode
 from snapo_ode.cli import main
 
-from report_checks import check_html, check_pdf
+from report_checks import check_html, check_pdf, check_reader
 
 HAS_CHROMIUM = snapo_ode.find_chromium() is not None
 
@@ -32,7 +32,12 @@ def test_html_numbers_are_the_json_and_the_evidence_holds(report_dir):
     doc, page = check_html(report_dir)
     assert len(page.values) >= 250 and len(page.images) == 3
     assert doc["report"]["sections"] == ["Executive summary", "Process parameters and specifications", "Nominal CQAs",
-                                         "Mass balances", "Sensitivities", "Design space", "Methods", "Provenance"]
+                                         "Mass balances", "Sensitivities", "Design space", "Methods",
+                                         "Document control and approval", "Appendix: solver settings and timings",
+                                         "Provenance"]
+    text = check_reader(page)
+    assert "What was mapped" in text and doc["mapped"]["count"] == 2 and doc["mapped"]["of"] == 4
+    assert doc["document"]["id"].startswith("SNAPO-Q8-") and "Approved by" in text
     verification = doc["verification"]
     assert verification["max_rel_diff_fd"] <= 1e-5 and verification["cantera_r1_amounts"] <= 1e-8
     # Every reactor against Cantera's own, the first one's also under its old name.
@@ -57,6 +62,16 @@ def test_html_numbers_are_the_json_and_the_evidence_holds(report_dir):
     assert space["operating_probability"] >= space["level"] and space["verification"]["points"][0]["i"] == 2
     summary = doc["summary"]
     assert summary["all_specs_met"] and summary["impact"]["degradant"]["dryer_temperature"]["grade"] in ("medium", "high")
+    # Criticality by the full model at the PAR's ends: residual solvent is strongly curved in the
+    # dryer's temperature (its linearised grade understates it), and at least as critical as the
+    # map shows it; each change is the full model's own CQA values at the ends.
+    solvent = summary["impact"]["residual_solvent"]["dryer_temperature"]
+    assert solvent["change_over_par_full_model"] > solvent["change_over_par"]
+    assert solvent["grade_full_model"] in ("medium", "high")
+    value = summary["cqas"]["residual_solvent"]["value"]
+    assert solvent["change_over_par_full_model"] == max(abs(solvent["at_par_low"] - value),
+                                                        abs(solvent["at_par_high"] - value))
+    assert sum(summary["impact_counts_full_model"].values()) == 5 * 4
 
 
 def test_design_space_agrees_with_full_monte_carlo_within_its_standard_error(report_dir):

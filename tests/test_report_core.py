@@ -14,7 +14,7 @@ import snapo_ode
 from snapo_ode import Figure, Heading, Highlights, Paragraph, Report, Section, Table, Value, write_report
 from snapo_ode.cli import CommandLine, main, publish_report
 
-from report_checks import check_html, check_pdf
+from report_checks import Page, check_html, check_pdf, check_reader
 
 matplotlib.use("Agg")
 HAS_CHROMIUM = snapo_ode.find_chromium() is not None
@@ -112,3 +112,34 @@ def test_a_failed_print_leaves_the_old_report(tmp_path, monkeypatch):
         write_report(out, toy_report(rows=5), pdf="require")
     assert (out / "report.html").read_bytes() == before
     assert shutil.which(str(fake))
+
+
+def _page(html: str) -> Page:
+    page = Page()
+    page.feed(html)
+    page.close()
+    return page
+
+
+@pytest.mark.parametrize("body, defect", [
+    ("<p>a step of 1.2e-05 m</p>", "scientific"),
+    ("<p>a duration of -0.000 years</p>", "negative zero"),
+    ("<p>written by /work/x/snapo_ode/cli.py</p>", "paths"),
+    ("<p>installed in lib/python3/site-packages</p>", "paths"),
+    ("<p>see finance/alm/_report.py</p>", "paths"),
+    ('<div class="card"><div class="label">value</div><div class="big"><span>1,234.5</span></div></div>', "unit"),
+])
+def test_the_reader_check_fails_on_each_defect(body, defect):
+    card = '<div class="card"><div class="label">v</div><div class="big"><span>3.5</span>\u2009kg</div></div>'
+    clean = _page(f"<h1>T</h1>{card}<h2>Summary</h2><p>a rate of 5%</p><h2>Provenance</h2><p>/work/x.py 1e-05</p>")
+    assert "5%" in check_reader(clean)  # the provenance may name files and raw numbers
+    with pytest.raises(AssertionError, match=defect):
+        check_reader(_page(f"<h1>T</h1>{card}<h2>Summary</h2>{body}<h2>Provenance</h2>"))
+
+
+def test_a_number_rounded_to_zero_reads_without_a_minus_sign():
+    from snapo_ode._runtime.report_model import format_value
+
+    assert [format_value(v, f) for v, f in ((-0.0004, ".3f"), (-1e-9, ".1%"), (-0.0, "+.2f"), (-0.004, ".2f"),
+                                            (-0.006, ".2f"), (-12.0, ",.0f"))] == ["0.000", "0.0%", "0.00",
+                                                                                   "0.00", "-0.01", "-12"]

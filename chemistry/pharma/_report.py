@@ -31,11 +31,37 @@ def _margin(value: float, low: float, high: float) -> tuple[float, float]:
     return min((d, limit) for d, limit in distances if np.isfinite(limit))
 
 
-def summary(study: dict, cpps: dict, chain: PharmaChain) -> dict:
+def _grade(fraction: float | None) -> str:
+    return ("high" if fraction is None or fraction >= IMPACT_THRESHOLDS["high"] else
+            "medium" if fraction >= IMPACT_THRESHOLDS["medium"] else "low")
+
+
+def range_ends(chain: PharmaChain, inputs: ChainInputs) -> dict:
+    """The CQAs by the full model with one CPP at an end of its PAR, the others at `inputs`:
+    cpp -> {"low": {cqa: value}, "high": {cqa: value}} (one compile, two solves per CPP)."""
+    import equinox as eqx
+
+    from ._sensitivities import cpp_only
+
+    evaluate = eqx.filter_jit(cpp_only(chain, inputs))
+    out = {}
+    for r in chain.cpp_ranges:
+        out[r.name] = {}
+        for side, end in zip(("low", "high"), r.par, strict=True):
+            at = inputs.cpps[r.name]  # shifted, not rebuilt: the same dtype and weak type, no recompile
+            cqas = np.asarray(evaluate(inputs.cpps.replace(**{r.name: at + (end - float(at))})))
+            out[r.name][side] = {name: float(v) for name, v in zip(chain.cqa_names, cqas, strict=True)}
+    return out
+
+
+def summary(study: dict, cpps: dict, chain: PharmaChain, ends: dict | None = None) -> dict:
     """What a reader needs first: each CQA's margin to its specification, and how far each CPP
     can move each CQA over its PAR relative to that margin (`impact`, classed by
-    IMPACT_THRESHOLDS)."""
+    IMPACT_THRESHOLDS): linearised (`grade`, from the sensitivity) and, with `ends`
+    (`range_ends`), by the full model at the PAR's ends (`grade_full_model`, the one the report
+    leads with: a CQA that is curved over the PAR is graded by what it does)."""
     cqas, impact, counts = {}, {}, {"high": 0, "medium": 0, "low": 0}
+    counts_full = dict(counts)
     for spec in chain.cqa_specs:
         value = study["cqas"][spec.name]
         margin, limit = _margin(value, spec.low, spec.high)
@@ -46,13 +72,21 @@ def summary(study: dict, cpps: dict, chain: PharmaChain) -> dict:
             slope = study["matrix"][spec.name][r.name]
             change = max(abs(slope * (end - cpps[r.name])) for end in r.par)
             fraction = change / margin if margin > 0 else None
-            grade = ("high" if fraction is None or fraction >= IMPACT_THRESHOLDS["high"] else
-                     "medium" if fraction >= IMPACT_THRESHOLDS["medium"] else "low")
+            grade = _grade(fraction)
             counts[grade] += 1
             impact[spec.name][r.name] = {"change_over_par": change, "fraction_of_margin": fraction, "grade": grade}
+            if ends is not None:
+                at_ends = [ends[r.name][side][spec.name] for side in ("low", "high")]
+                full = max(abs(v - value) for v in at_ends)  # as the linearised change, by the full model
+                full_fraction = full / margin if margin > 0 else None
+                counts_full[_grade(full_fraction)] += 1
+                impact[spec.name][r.name].update(
+                    at_par_low=at_ends[0], at_par_high=at_ends[1], change_over_par_full_model=full,
+                    fraction_of_margin_full_model=full_fraction, grade_full_model=_grade(full_fraction))
     closest = min(cqas, key=lambda name: cqas[name]["relative_margin"])
     return {"all_specs_met": all(c["meets"] for c in cqas.values()), "cqas": cqas, "closest_cqa": closest,
-            "impact": impact, "impact_counts": counts, "impact_thresholds": IMPACT_THRESHOLDS}
+            "impact": impact, "impact_counts": counts, "impact_thresholds": IMPACT_THRESHOLDS,
+            "impact_counts_full_model": counts_full if ends is not None else None}
 
 
 def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 21, verify_points: int = 9,
@@ -85,8 +119,15 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
         curvature_points=curvature_points, mesh=mesh).to_json())
     space.update(grid_size=points, verification_count=len(space["verification"]["points"]),
                  uncertain_text=", ".join(space["uncertain"]))
+    ends_began = time.perf_counter()
+    ends = range_ends(chain, inputs)
+    ends_seconds = time.perf_counter() - ends_began
     values = study["cpps"]
-    return {
+    mapped = [space["x"], space["y"]]
+    balances = balance_table(chain, inputs)
+    for row in balances:
+        row["residual_digits"] = agreement_digits(row["residual"])
+    data = {
         "process": {"name": chain.process.name, "description": chain.process.description,
                     "units": " -> ".join(f"{u.name} ({u.type})" for u in chain.process.units),
                     "first_reactor": chain.process.units[0].name,
@@ -96,8 +137,12 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
         "specifications": {s.name: {"unit": s.unit, "low": None if np.isinf(s.low) else s.low,
                                     "high": None if np.isinf(s.high) else s.high, "spec": s.text(),
                                     "description": s.description} for s in chain.cqa_specs},
-        "summary": summary(study, values, chain),
-        "mass_balances": balance_table(chain, inputs),
+        "summary": summary(study, values, chain, ends),
+        "mapped": {"cpps": mapped, "count": len(mapped), "of": len(values),
+                   "held": {name: values[name] for name in values if name not in mapped},
+                   "held_text": ", ".join(name for name in values if name not in mapped)},
+        "document": document_control(chain, study),
+        "mass_balances": balances,
         "sensitivities": study,
         "design_space": space,
         "uncertainty_fit": fitted,
@@ -117,12 +162,66 @@ def build_report(chain: PharmaChain, cpps: CPPs | ChainInputs, *, points: int = 
             "r1_stiffness_ratio": stiffness_ratio(chain, cpps, inputs.physical),
         },
         "solver": chain.solver.as_dict(),
+        "solver_text": {key: ({option: readable(v) for option, v in value.items()} if isinstance(value, dict)
+                              else readable(value)) for key, value in chain.solver.as_dict().items()},
+        "model": {"mechanism_file": pathlib.Path(mechanism_path).name},
         "timings": {"seconds_median": study["seconds_median"], "compile_seconds": study["compile_seconds"],
                     "mode": study["mode"], "passes": study["passes"], "study_seconds": study_seconds,
                     "design_space_surrogate_seconds": space["seconds"]["surrogate"],
                     "design_space_monte_carlo_seconds": space["seconds"]["monte_carlo"],
+                    "range_ends_seconds": ends_seconds,
                     "total_seconds": time.perf_counter() - start},
     }
+    verification = data["verification"]
+    data["verification_digits"] = {
+        **{key: agreement_digits(verification[key]) for key in (
+            "max_rel_diff_fd", "max_rel_diff_fd_parameters", "reference_rel_error", "reference_rel_error_parameters",
+            "reference_cqa_rel_error", "cantera_rates_of_progress", "cantera_net_production",
+            "cantera_reactors_max_amounts")},
+        "cantera_reactors": {name: {key: agreement_digits(value) for key, value in reactor.items()}
+                             for name, reactor in verification["cantera_reactors"].items()}}
+    return data
+
+
+SUPERSCRIPTS = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
+
+
+def readable(value):
+    """A setting as a reader reads it: a number below 1e-3 or from 1e6 in magnitude as
+    "1 x 10^-10" with a true times sign and superscripts, other numbers as `format(value, "g")`,
+    anything else as it is."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return value
+    if value == 0 or 1e-3 <= abs(value) < 1e6:
+        return format(value, "g")
+    mantissa, exponent = f"{value:.3g}".split("e") if "e" in f"{value:.3g}" else (f"{value:.3g}", "0")
+    exponent = str(int(exponent)).translate(SUPERSCRIPTS)
+    return f"10{exponent}" if mantissa == "1" else f"{mantissa} \u00d7 10{exponent}"
+
+
+def agreement_digits(relative_difference: float | None) -> float | None:
+    """A relative difference as the significant digits two results share, -log10 of it (16, a
+    double's, for an exact match)."""
+    if relative_difference is None:
+        return None
+    return float(min(16.0, -np.log10(max(relative_difference, 1e-16))))
+
+
+def document_control(chain: PharmaChain, study: dict) -> dict:
+    """The report's document ID (the process's name and the first eight hex digits of the SHA-256
+    of its file: the same process file, the same ID), its version (the package's) and the roles
+    that sign it."""
+    import hashlib
+    from importlib.metadata import PackageNotFoundError, version
+
+    digest = hashlib.sha256(pathlib.Path(chain.process.path).read_bytes()).hexdigest()[:8]
+    try:
+        package = version("snapo-ode")
+    except PackageNotFoundError:
+        package = "unreleased"
+    return {"id": f"SNAPO-Q8-{chain.process.name}-{digest}".upper(), "version": package,
+            "roles": ["Prepared by (process modelling)", "Reviewed by (process development)",
+                      "Approved by (quality assurance)"]}
 
 
 def report_provenance(chain: PharmaChain, cpps: CPPs | ChainInputs, *, mechanism_path=None, command=None) -> dict:
@@ -166,9 +265,10 @@ def pharma_report(data: dict, provenance: dict) -> Report:
 
     return Report(name="pharma", title=f"{data['process']['name']}: ICH Q8 sensitivity and design-space report",
                   data=data, provenance=provenance, sections=sections(data),
-                  subtitle=("The process ", snapo_ode.Value(("process", "units")), " at the operating point below; "
-                            "every number from one run, computed at ", snapo_ode.Value(("provenance", "timestamp_utc")),
-                            "."),
+                  subtitle=("Document ", snapo_ode.Value(("document", "id")), ", version ",
+                            snapo_ode.Value(("document", "version")), ". The process ",
+                            snapo_ode.Value(("process", "units")), " at the operating point below; every number from "
+                            "one run, computed at ", snapo_ode.Value(("provenance", "timestamp_utc")), "."),
                   warnings=tuple(data["sensitivities"]["warnings"]),
                   csv={"sensitivities.csv": sensitivity_rows(data), "design_space.csv": design_space_rows(data)})
 

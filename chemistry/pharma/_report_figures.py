@@ -10,7 +10,8 @@ CQA_COLOURS = ("#d62728", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2",
 
 
 def tornado_figure(doc: dict):
-    """Per CQA, the linearised change over each CPP's PAR (low and high end), largest first."""
+    """Per CQA, the change by the full model when each CPP moves to the low and high end of its
+    PAR (bars), and the linearised change (ticks), largest first."""
     import matplotlib.pyplot as plt
 
     study, cpps, specs = doc["sensitivities"], doc["operating_point"], doc["specifications"]
@@ -21,12 +22,17 @@ def tornado_figure(doc: dict):
     for axis in axes[len(specs):]:
         axis.axis("off")
     for axis, cqa in zip(axes, specs):
-        lows = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][0] - cpps[n]["value"]) for n in cpp_names])
-        highs = np.array([study["matrix"][cqa][n] * (cpps[n]["par"][1] - cpps[n]["value"]) for n in cpp_names])
+        impact, value = doc["summary"]["impact"][cqa], doc["summary"]["cqas"][cqa]["value"]
+        lows = np.array([impact[n]["at_par_low"] - value for n in cpp_names])
+        highs = np.array([impact[n]["at_par_high"] - value for n in cpp_names])
+        linear = np.array([[study["matrix"][cqa][n] * (cpps[n]["par"][k] - cpps[n]["value"]) for k in (0, 1)]
+                           for n in cpp_names])
         order = np.argsort(np.abs(highs - lows))
         names = [cpp_names[i] for i in order]
-        axis.barh(names, lows[order], color="#4c78a8", label="CPP at the low end of its PAR")
-        axis.barh(names, highs[order], color="#f58518", label="CPP at the high end of its PAR")
+        axis.barh(names, lows[order], color="#4c78a8", label="CPP at the low end of its PAR (full model)")
+        axis.barh(names, highs[order], color="#f58518", label="CPP at the high end of its PAR (full model)")
+        axis.scatter(linear[order].ravel(), np.repeat(np.arange(len(names)), 2), marker="|", s=90, color="k",
+                     zorder=3, label="linearised")
         axis.axvline(0, color="k", lw=0.8)
         axis.set_title(f"{cqa} [{specs[cqa]['unit']}], spec {specs[cqa]['spec']}", fontsize=8.5, loc="left")
         axis.tick_params(labelsize=7.5)
@@ -51,14 +57,19 @@ def design_space_figure(doc: dict):
     # x is the CPP of the first index: plot it on the horizontal axis.
     mesh = axis.contourf(xs, ys, probability.T, levels=np.linspace(0, 1, 21), cmap="RdYlGn", vmin=0, vmax=1)
     handles = []
+    # The edge first, wide and grey-black, each CQA's own contour over it, narrower and labelled
+    # with its name on the line: where a CQA's line runs along the edge, that CQA sets it.
+    if probability.min() < level < probability.max():
+        axis.contour(xs, ys, probability.T, levels=[level], colors="#222222", linewidths=4.0, alpha=0.55, zorder=2)
+    handles.insert(0, Line2D([], [], color="#222222", lw=4.0, alpha=0.55,
+                             label=f"P(all specs) = {level:g}: edge of the design space"))
     for k, cqa in enumerate(doc["specifications"]):
         by_cqa, colour = np.array(space["probability_by_cqa"][cqa]).T, CQA_COLOURS[k % len(CQA_COLOURS)]
         if by_cqa.min() < level < by_cqa.max():
-            axis.contour(xs, ys, by_cqa, levels=[level], colors=[colour], linewidths=1.2, linestyles="--")
-            handles.append(Line2D([], [], color=colour, ls="--", label=f"P({cqa} in spec) = {level:g}"))
-    if probability.min() < level < probability.max():
-        axis.contour(xs, ys, probability.T, levels=[level], colors="k", linewidths=2.2)
-    handles.insert(0, Line2D([], [], color="k", lw=2.2, label=f"P(all specs) = {level:g}: edge of the design space"))
+            lines = axis.contour(xs, ys, by_cqa, levels=[level], colors=[colour], linewidths=1.6, linestyles="--",
+                                 zorder=3)
+            axis.clabel(lines, fmt={level: cqa}, fontsize=7, inline=True, colors=[colour])
+            handles.append(Line2D([], [], color=colour, ls="--", lw=1.6, label=f"P({cqa} in spec) = {level:g}"))
     for key, style in (("nor", dict(ec="#08306b", lw=1.8, ls="-")), ("par", dict(ec="#555555", lw=1.2, ls=":"))):
         (x0, x1), (y0, y1) = cpps[x][key], cpps[y][key]
         axis.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, **style))

@@ -113,7 +113,7 @@ def _report(args) -> int:
     from ._report import alm_report, build_alm_report, report_provenance
 
     settings = dict(n_paths=_paths(args, 1000), horizon_months=args.horizon_months, train_steps=args.train_steps,
-                    train_paths=args.train_paths, bump=not args.no_bump, seed=args.seed)
+                    train_paths=args.train_paths, bump=not args.no_bump, seed=args.seed, bump_sample=args.bump_sample)
     from snapo_ode import is_writer
 
     fund = _fund(args)
@@ -191,6 +191,9 @@ def register_alm(cli: CommandLine) -> None:
     report.add_argument("--train-steps", type=count(), default=300, metavar="S", help="policy training steps (default 300)")
     report.add_argument("--train-paths", type=count(), default=256, help="paths per training step")
     report.add_argument("--no-bump", action="store_true", help="skip the check of the adjoint against central bumps")
+    report.add_argument("--bump-sample", type=count(low=0), default=20, metavar="K",
+                        help="check K sensitivities against central bumps: the largest quarter and a seeded draw of "
+                             "the rest (default 20; 0: every one, batched, with forward mode too)")
     add_training_options(report)
     add_device_options(report)
     report.set_defaults(handler=_report)

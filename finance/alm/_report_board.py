@@ -10,44 +10,51 @@ V = Value
 
 
 def board_section(data: dict) -> Section:
+    from ._report_content import money
+
+    unit = money(data)
     dates = data["p_underfunded"]["months"]
     last = len(dates) - 1
-    required = V(("p_underfunded", "required_funding_ratio"), "g")
+    required = V(("p_underfunded", "required_funding_ratio"), ".0%")
     cards = (("Hedge ratio: the assets' DV01 over the liabilities'", V(("hedge_ratio",), ".1%"),
               ("a parallel shift of the key rates, at the start",)),
-             ("Probability of a funding ratio below one at the last date", V(("p_underfunded", "below_1", last), ".2%"),
-              ("month ", V(("p_underfunded", "months", last), "d"))),
+             ("Probability of underfunding at the last date", V(("p_underfunded", "below_1", last), ".1%"),
+              ("month ", V(("p_underfunded", "months", last), "d"), "; a funding ratio below one")),
              ("Probability of a funding ratio below the required level at the last date",
-              V(("p_underfunded", "below_required", last), ".2%"), ("required: ", required)),
-             ("Surplus at risk at the first date", V(("surplus_at_risk", "surplus_at_risk", 0), ",.1f", " million"),
+              V(("p_underfunded", "below_required", last), ".1%"), ("required: ", required)),
+             ("Surplus at risk at the first date", V(("surplus_at_risk", "surplus_at_risk", 0), ",.1f", " " + unit),
               ("month ", V(("surplus_at_risk", "months", 0), "d"), ", confidence ",
-               V(("surplus_at_risk", "confidence"), ".1%"))))
-    rows = tuple((V(("p_underfunded", "months", k), "d"), V(("p_underfunded", "below_1", k), ".2%"),
-                  V(("p_underfunded", "below_required", k), ".2%"), V(("surplus_at_risk", "surplus_at_risk", k), ",.2f"),
-                  V(("surplus_at_risk", "expected_shortfall", k), ",.2f"))
+               V(("surplus_at_risk", "confidence"), ".1%"), "; a loss, from the initial surplus (negative: even "
+               "the bad case gains)")))
+    rows = tuple((V(("p_underfunded", "months", k), "d"), V(("p_underfunded", "below_1", k), ".1%"),
+                  V(("p_underfunded", "below_required", k), ".1%"), V(("surplus_at_risk", "surplus_at_risk", k), ",.1f"),
+                  V(("surplus_at_risk", "expected_shortfall", k), ",.1f"))
                  for k in range(len(dates)))
-    tenors = data["key_rate_durations"]["tenors"]
-    durations = tuple((V(("key_rate_durations", "tenors", k), ".3g", " y"), V(("key_rate_durations", "assets", k), ".3f"),
-                       V(("key_rate_durations", "liabilities", k), ".3f"), V(("key_rate_durations", "surplus", k), ".3f"),
-                       V(("key_rate_durations", "dv01", "surplus", k), ".4f"))
-                      for k in range(len(tenors)))
+    buckets = ("key_rate_durations_buckets",)
+    durations = tuple((V((*buckets, "tenors", k), "g", " y"), V((*buckets, "assets", k), ".2f"),
+                       V((*buckets, "liabilities", k), ".2f"), V((*buckets, "surplus", k), ".2f"),
+                       V((*buckets, "surplus_dv01", k), ",.3f"))
+                      for k in range(len(data[buckets[0]]["tenors"])))
     return Section("For the board", (
         Highlights(cards),
         Figure.from_matplotlib(_fan_figure(data), ("The funding ratio over the horizon under the studied policy: the "
                                                    "median, the middle half and the middle nine-tenths of the paths, "
                                                    "exact constraints",),
                                "funding-ratio fan chart", width="80%"),
-        Table(("month", "P(funding ratio below one)", "P(below the required level)", "surplus at risk [million]",
-               "expected shortfall [million]"),
-              rows, ("At the board's dates (required level ", required, "): surplus at risk is the initial surplus less the ",
-                     V(("surplus_at_risk", "confidence"), ".1%"), "-confidence low quantile of the surplus discounted "
-                     "by the bank account; expected shortfall the initial surplus less the mean beyond it (initial "
-                     "surplus ", V(("surplus_at_risk", "initial_surplus"), ",.2f"), " million)"), csv="board.csv"),
-        Figure.from_matplotlib(_duration_figure(data), ("Key-rate durations at the start: -dV/dr per key tenor over "
-                                                        "the value (the surplus's over the liabilities)",),
-                               "key-rate durations", width="88%"),
-        Table(("key tenor", "assets [years]", "liabilities [years]", "surplus [years of liabilities]",
-               "surplus DV01 [million per bp]"), durations, ("Key-rate durations (forward-mode AD at the start)",)),
+        Table(("month", "P(funding ratio below one)", "P(below the required level)", f"surplus at risk [{unit}]",
+               f"expected shortfall [{unit}]"),
+              rows, ("At the board's dates (required level ", required, "): surplus at risk is the loss from the "
+                     "initial surplus to the ", V(("surplus_at_risk", "confidence"), ".1%"), "-confidence low quantile "
+                     "of the surplus discounted by the bank account; expected shortfall the loss to the mean beyond it "
+                     "(initial surplus ", V(("surplus_at_risk", "initial_surplus"), ",.1f", " " + unit), "). Both read "
+                     "as losses: positive, the fund loses that much; negative, even the bad case ends above the "
+                     "initial surplus"), csv="board.csv"),
+        Figure.from_matplotlib(_duration_figure(data), ("Key-rate durations at the start at market buckets: -dV/dr "
+                                                        "per bucket over the value (the surplus's over the liabilities)",),
+                               "key-rate durations", width="80%"),
+        Table(("key rate", "assets [years]", "liabilities [years]", "surplus [years of liabilities]",
+               f"surplus DV01 [{unit} per bp]"), durations,
+              ("Key-rate durations (forward-mode AD at the start), the model's tenors split onto market buckets",)),
         Paragraph(("Durations add up over the tenors to the parallel duration; the hedge ratio is the assets' parallel "
                    "DV01 over the liabilities'. A DV01 is the value gained when every rate falls by one basis point "
                    "(-dV/dr times a basis point): positive for a long bond position, and the liabilities' is positive too.",),
@@ -64,21 +71,25 @@ def comparison_blocks(data: dict) -> tuple:
     for name, base in sources:
         for k, month in enumerate(data["p_underfunded"]["months"]):  # the fan holds every month-end from 0
             rows.append((name, V((*base, "p_underfunded", "months", k), "d"),
-                         V((*base, "p_underfunded", "below_1", k), ".2%"),
-                         V((*base, "p_underfunded", "below_required", k), ".2%"),
-                         V((*base, "surplus_at_risk", "surplus_at_risk", k), ",.2f"),
-                         V((*base, "surplus_at_risk", "expected_shortfall", k), ",.2f"),
-                         V((*base, "funding_ratio_percentiles", "p05", month), ".3f"),
-                         V((*base, "funding_ratio_percentiles", "p50", month), ".3f")))
+                         V((*base, "p_underfunded", "below_1", k), ".1%"),
+                         V((*base, "p_underfunded", "below_required", k), ".1%"),
+                         V((*base, "surplus_at_risk", "surplus_at_risk", k), ",.1f"),
+                         V((*base, "surplus_at_risk", "expected_shortfall", k), ",.1f"),
+                         V((*base, "funding_ratio_percentiles", "p05", month), ".1%"),
+                         V((*base, "funding_ratio_percentiles", "p50", month), ".1%")))
+    from ._report_content import money
+
     table = Table(("policy", "month", "P(funding ratio below one)", "P(below the required level)",
-                   "surplus at risk [million]", "expected shortfall [million]", "funding ratio p05", "median"),
+                   f"surplus at risk [{money(data)}]", f"expected shortfall [{money(data)}]", "funding ratio p05",
+                   "median"),
                   tuple(rows), ("The board's figures of each policy on the same paths, exact constraints: the "
                                 "studied policy, then the fixed mixes",), csv="board_policies.csv")
     if data.get("strategic_mix") is None:
         mix = Paragraph(("The fund file names no strategic mix (assets.strategic_mix), so none is compared.",), "note")
     else:
         mix = Table(("asset class", "strategic weight"),
-                    tuple((name, V(("strategic_mix", name), ".1%")) for name in data["strategic_mix"]),
+                    tuple((data["asset_class_names"].get(name, name), V(("strategic_mix", name), ".1%"))
+                          for name in data["strategic_mix"]),
                     ("The fund's strategic mix (from its file), rebalanced to every month",))
     return table, mix
 
@@ -105,7 +116,7 @@ def _duration_figure(data: dict):
     import matplotlib.pyplot as plt
     import numpy as np
 
-    durations = data["key_rate_durations"]
+    durations = data["key_rate_durations_buckets"]
     labels = [tenor_label(t) for t in durations["tenors"]]
     x = np.arange(len(labels))
     figure, axis = plt.subplots(figsize=(7.0, 2.8))

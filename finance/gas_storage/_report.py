@@ -25,6 +25,30 @@ UNITS = {"capacity": "MMBtu", "initial_inventory": "MMBtu", "terminal_inventory_
          "max_injection": "MMBtu/day", "max_withdrawal": "MMBtu/day", "fuel_loss": "fraction",
          "injection_cost": "$/MMBtu", "withdrawal_cost": "$/MMBtu", "rate": "per year",
          "injection_ratchet": "fraction", "withdrawal_ratchet": "fraction"}
+DEFAULT_CURRENCY, DEFAULT_ENERGY_UNIT = "USD", "MMBtu"  # the built-in samples' (Henry Hub) units
+# Each facility input as a desk names it; a ratchet's row k is its point k + 1, [fill level, rate].
+INPUT_NAMES = {"capacity": "working gas capacity", "initial_inventory": "inventory at the start",
+               "terminal_inventory_min": "minimum inventory at the end", "max_injection": "maximum injection rate",
+               "max_withdrawal": "maximum withdrawal rate", "fuel_loss": "fuel loss on injection",
+               "injection_cost": "injection cost", "withdrawal_cost": "withdrawal cost", "rate": "discount rate",
+               "injection_ratchet": "injection ratchet", "withdrawal_ratchet": "withdrawal ratchet"}
+RATCHET_COLUMNS = ("fill level", "rate")
+
+
+def unit_of(field: str, currency: str, energy_unit: str) -> str:
+    """The unit of a facility input in the report's currency and energy unit."""
+    return UNITS.get(field, "").replace("$", currency + " ").replace("MMBtu", energy_unit).replace(" /", "/")
+
+
+def input_name(name: str) -> str:
+    """A facility input's name as a desk reads it: "injection_ratchet[1][0]" -> "injection
+    ratchet, point 2, fill level"."""
+    field, _, index = name.partition("[")
+    words = INPUT_NAMES.get(field, field.replace("_", " "))
+    if not index:
+        return words
+    row, *column = (int(i) for i in index.replace("]", " ").replace("[", " ").split())
+    return f"{words}, point {row + 1}" + (f", {RATCHET_COLUMNS[column[0]]}" if column else "")
 
 
 def months(n_days: int, start: datetime.date | None) -> list[dict]:
@@ -36,7 +60,8 @@ def months(n_days: int, start: datetime.date | None) -> list[dict]:
         length = calendar.monthrange(date.year, date.month)[1] - (date.day - 1)
         last = min(day + length, n_days) - 1
         label = f"{date:%Y-%m}" if start else f"month {len(out) + 1} (days {day}-{last})"
-        out.append({"month": label, "first_day": day, "last_day": last})
+        name = f"{date:%b %Y}" if start else f"month {len(out) + 1}"
+        out.append({"month": label, "month_name": name, "first_day": day, "last_day": last})
         day = last + 1
         date = (date.replace(day=1) + datetime.timedelta(days=32)).replace(day=1)
     return out
@@ -61,22 +86,29 @@ def ladder(data: dict, start: datetime.date | None) -> list[dict]:
     return rows
 
 
-def facility_sensitivities(data: dict, inputs) -> list[dict]:
-    """Each facility input's value, d value / d input, and the value's change for +1% of it."""
+def facility_sensitivities(data: dict, inputs, currency: str = DEFAULT_CURRENCY,
+                           energy_unit: str = DEFAULT_ENERGY_UNIT) -> list[dict]:
+    """Each facility input's value, d value / d input, and the value's change for +1% of it;
+    `name` as a desk reads it and `unit` in the report's currency and energy unit."""
     rows = []
     for name, sensitivity in data["parameter_sensitivities"].items():
         field, _, index = name.partition("[")
         array = np.asarray(getattr(inputs, field))
         value = float(array[tuple(int(i) for i in index.replace("]", " ").replace("[", " ").split())]) if index \
             else float(array)
-        rows.append({"input": name, "unit": UNITS.get(field, ""), "value": value, "sensitivity": sensitivity,
+        rows.append({"input": name, "name": input_name(name), "unit": unit_of(field, currency, energy_unit),
+                     "value": value, "sensitivity": sensitivity,
                      "per_percent": sensitivity * value * 0.01 + 0.0})  # + 0.0: no "-0" in the table
     return rows
 
 
 def build_gas_report(inputs, settings, *, lsmc: bool = False, nodes: int = 101, degree: int = 3,
-                     foresight_paths: int = 256, start: datetime.date | None = None) -> dict:
-    """Every number of the gas report, as the JSON document's data (see docs/gas_storage.md)."""
+                     foresight_paths: int = 256, start: datetime.date | None = None,
+                     start_source: str | None = None, currency: str = DEFAULT_CURRENCY,
+                     energy_unit: str = DEFAULT_ENERGY_UNIT) -> dict:
+    """Every number of the gas report, as the JSON document's data (see docs/gas_storage.md):
+    the contract starts on `start` (where it came from: `start_source`, words), money in
+    `currency`, energy in `energy_unit` (labels only: the model uses the curve's units as given)."""
     import time
 
     from ._study import run_study
@@ -91,7 +123,8 @@ def build_gas_report(inputs, settings, *, lsmc: bool = False, nodes: int = 101, 
     data = result.to_json()
     data.update(
         lsmc_run=bool(lsmc), has_dual_bound="dual_upper_bound" in data,
-        start_date=None if start is None else start.isoformat(),
+        start_date=None if start is None else start.isoformat(), start_date_source=start_source,
+        currency=currency, energy_unit=energy_unit, price_unit=f"{currency}/{energy_unit}",
         forward_curve=np.asarray(inputs.forward_curve).tolist(),
         lp_schedule={"injection": np.asarray(study.intrinsic.injection).tolist(),
                      "withdrawal": np.asarray(study.intrinsic.withdrawal).tolist(),
@@ -103,9 +136,11 @@ def build_gas_report(inputs, settings, *, lsmc: bool = False, nodes: int = 101, 
     data["scene_text"] = ", ".join(data["scene"])
     data["monthly_ladder"] = ladder(data, start)
     largest = max(data["monthly_ladder"], key=lambda row: abs(row["delta"]))
-    data["largest_month"] = {"month": largest["month"], "delta": largest["delta"]}
+    data["largest_month"] = {"month": largest["month"], "month_name": largest["month_name"], "delta": largest["delta"]}
     data["ladder_totals"] = {key: float(sum(r[key] for r in data["monthly_ladder"])) for key in ("delta", "lp_delta")}
-    data["facility_sensitivities"] = facility_sensitivities(data, inputs)
+    data["facility_sensitivities"] = facility_sensitivities(data, inputs, currency, energy_unit)
+    if data.get("max_rel_diff") is not None:
+        data["max_rel_diff_ppm"] = data["max_rel_diff"] * 1e6  # for a reader, in parts per million
     data["report_seconds"] = time.perf_counter() - began
     return data
 

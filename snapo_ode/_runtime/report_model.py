@@ -146,7 +146,8 @@ def lookup(document: Mapping, path: Path) -> Any:
 
 
 def format_value(value: Any, fmt: str) -> str:
-    """How a value reads in the report (see `Value`)."""
+    """How a value reads in the report (see `Value`); a number that rounds to zero reads without
+    a minus sign ("0.000", not "-0.000": the sign of round-off means nothing to a reader)."""
     if value is None:
         return "n/a"
     if isinstance(value, bool):
@@ -154,7 +155,8 @@ def format_value(value: Any, fmt: str) -> str:
     if isinstance(value, str):
         return value
     if isinstance(value, (int, float)):
-        return format(value, fmt)
+        text = format(value, fmt)
+        return text[1:] if text.startswith("-") and not any(c in "123456789" for c in text.split("e")[0]) else text
     raise TypeError(f"cannot show a {type(value).__name__} as one value")
 
 
