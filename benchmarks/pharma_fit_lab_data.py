@@ -20,7 +20,7 @@ from chemistry import GAS_CONSTANT  # noqa: E402
 from chemistry.pharma._chain import PharmaChain  # noqa: E402
 from chemistry.pharma._experiments import ErrorModel, Experiment  # noqa: E402
 from chemistry.pharma._fit_model import fitted_parameters  # noqa: E402
-from chemistry.pharma._fit_synthetic import data_csv, design, experiments_yaml, simulate  # noqa: E402
+from chemistry.pharma._fit_synthetic import data_csv, experiments_yaml, lab_design, simulate_lab_data  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1] / "chemistry" / "pharma" / "processes"
 CASES = {
@@ -46,10 +46,10 @@ def case_data(process: str, case: dict, seed: int | None = 0):
     experiments = tuple(Experiment(f"run_{T - 273.15:.0f}C", case["unit"], T, dict(case["charges"]))
                         for T in case["temperatures"])
     errors = {**{s: ErrorModel(0.002, 0.01) for s in case["main"]}, **{s: ErrorModel(1e-4, 0.02) for s in case["minor"]}}
-    data = design(experiments, list(case["times"]), [*case["main"], *case["minor"]], errors)
+    data = lab_design(experiments, list(case["times"]), [*case["main"], *case["minor"]], errors)
     names = [f"{field}[{eq}]" for eq in case["truth"] for field in ("log_multiplier", "E_a")]
     fitted = fitted_parameters(chain, data, names)
-    return chain, simulate(chain, data, fitted, truth_theta(fitted, case["truth"]), seed), names, fitted
+    return chain, simulate_lab_data(chain, data, fitted, truth_theta(fitted, case["truth"]), seed), names, fitted
 
 
 def main() -> None:

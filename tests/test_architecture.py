@@ -91,7 +91,7 @@ CLI_LAYER = ("snapo_ode.cli", "snapo_ode._runtime.options", "snapo_ode._runtime.
 
 def test_argparse_namespaces_stay_in_the_cli_layer():
     for name, path in _modules().items():
-        in_cli = name in CLI_LAYER or name.rpartition(".")[2] == "_cli"
+        in_cli = name in CLI_LAYER or name.rpartition(".")[2].endswith("_cli")  # a domain's _cli, _fit_cli, ...
         if not in_cli:
             tree = ast.parse(path.read_text())
             imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}

@@ -13,7 +13,7 @@ from chemistry.pharma import BUMP_SOLVER, PharmaChain, design_space, make_cpps
 from chemistry.pharma._experiments import ErrorModel, Experiment, read_lab_data
 from chemistry.pharma._fit import fit, residual_functions
 from chemistry.pharma._fit_model import experiment_model, fitted_parameters
-from chemistry.pharma._fit_synthetic import data_csv, design, experiments_yaml, simulate
+from chemistry.pharma._fit_synthetic import data_csv, experiments_yaml, lab_design, simulate_lab_data
 from chemistry.pharma._posterior import Posterior, posterior_from_fit, read_posterior, write_posterior
 from snapo_ode import InputError
 
@@ -32,10 +32,10 @@ def lab(chain):
     experiments = (Experiment("cold", "r1", 303.15, {"A": 0.33, "B": 0.363}),
                    Experiment("hot", "r1", 323.15, {"A": 0.30, "B": 0.40}))
     errors = {"A": ErrorModel(0.002, 0.01), "P": ErrorModel(0.002, 0.01), "I": ErrorModel(1e-4, 0.02)}
-    data = design(experiments, [5, 15, 30, 60, 120], ["A", "P", "I"], errors)
+    data = lab_design(experiments, [5, 15, 30, 60, 120], ["A", "P", "I"], errors)
     fitted = fitted_parameters(chain, data, FIT)
     truth = np.array([0.2, -0.3, 0.15])
-    return simulate(chain, data, fitted, truth, seed=1), fitted, truth
+    return simulate_lab_data(chain, data, fitted, truth, seed=1), fitted, truth
 
 
 def _write(tmp_path, experiments: str, csv: str):

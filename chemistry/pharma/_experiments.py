@@ -55,7 +55,7 @@ class Experiment(NamedTuple):
 
 
 class ErrorModel(NamedTuple):
-    """A measured species' standard deviation sqrt(constant^2 + (proportional * value)^2):
+    """The standard deviation of a species' measurement, sqrt(constant^2 + (proportional * value)^2):
     `constant` [kmol/m^3], `proportional` [-]."""
 
     constant: float

@@ -95,7 +95,7 @@ def fit_report(result, data, process: str, seconds: dict) -> FitReport:
 
 
 def run_fit(args) -> int:
-    from ._cli import chain_from_args
+    from ._chain_cli import chain_from_args
     from ._experiments import read_lab_data
     from ._fit import fit
     from ._posterior import posterior_from_fit
@@ -140,7 +140,7 @@ class NextExperiment(Result):
 
 
 def run_next_experiment(args) -> int:
-    from ._cli import chain_from_args
+    from ._chain_cli import chain_from_args
     from ._experiments import read_experiments, read_lab_data
     from ._fit import fit
     from ._next_experiment import rank_candidates
@@ -184,7 +184,7 @@ def posterior_option(args, chain) -> dict:
 
 
 def register_fit(cli, pharma) -> None:
-    from ._cli import add_chain_arguments
+    from ._chain_cli import add_chain_arguments
 
     command = cli.command("fit", "fit the process's kinetics to lab data (experiments file, data file): estimates, "
                           "standard errors, correlation, Wald and profile intervals, identifiability; writes a "

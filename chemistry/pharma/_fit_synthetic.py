@@ -9,7 +9,7 @@ from ._experiments import ErrorModel, Experiment, LabData, Measurements
 from ._fit_model import FittedParameters, experiment_model
 
 
-def design(experiments: tuple[Experiment, ...], times: list, species: list[str],
+def lab_design(experiments: tuple[Experiment, ...], times: list, species: list[str],
            error_model: dict[str, ErrorModel]) -> LabData:
     """The `LabData` of `experiments` sampled at `times` [min] (the same for each) for each of
     `species`, with NaN values (to be simulated) and the error model's sds to come."""
@@ -20,7 +20,7 @@ def design(experiments: tuple[Experiment, ...], times: list, species: list[str],
     return LabData(tuple(experiments), dict(error_model), m)
 
 
-def simulate(chain: PharmaChain, data: LabData, fitted: FittedParameters, theta, seed: int | None) -> LabData:
+def simulate_lab_data(chain: PharmaChain, data: LabData, fitted: FittedParameters, theta, seed: int | None) -> LabData:
     """`data` with values simulated at `theta` (`fitted`'s internal coordinates) plus noise of its
     error model drawn with `seed` (None: no noise)."""
     exact = np.asarray(experiment_model(chain, data, fitted).predict(np.asarray(theta, float)))

@@ -11,7 +11,7 @@ from snapo_ode import InputError
 from ._experiments import ErrorModel, LabData
 from ._fit import FitResult, residual_functions
 from ._fit_model import experiment_model
-from ._fit_synthetic import design
+from ._fit_synthetic import lab_design
 
 
 def rank_candidates(chain, data: LabData, result: FitResult, candidates, times: list[float],
@@ -27,7 +27,7 @@ def rank_candidates(chain, data: LabData, result: FitResult, candidates, times: 
         raise InputError(f"--species {missing[0]}: the experiments file's error_model states no sd for it; a candidate's "
                          "weights come from the error model.")
     errors = {s: data.error_model.get(s, ErrorModel(float(np.sqrt(result.scale)), 0.0)) for s in species}
-    plan = design(tuple(candidates), list(times), list(species), errors)
+    plan = lab_design(tuple(candidates), list(times), list(species), errors)
     model = experiment_model(chain, plan, result.fitted)
     predicted = np.asarray(model.predict(result.theta))
     sd = np.zeros_like(predicted)

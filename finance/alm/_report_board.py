@@ -6,12 +6,16 @@ from snapo_ode import Figure, Highlights, Paragraph, Section, Table, Value
 
 from ._factors import tenor_label
 
+
+def money(data: dict) -> str:
+    """The unit of the report's money: millions of the fund's currency."""
+    return f"million {data['currency']}"
+
+
 V = Value
 
 
 def board_section(data: dict) -> Section:
-    from ._report_content import money
-
     unit = money(data)
     dates = data["p_underfunded"]["months"]
     last = len(dates) - 1
@@ -77,7 +81,6 @@ def comparison_blocks(data: dict) -> tuple:
                          V((*base, "surplus_at_risk", "expected_shortfall", k), ",.1f"),
                          V((*base, "funding_ratio_percentiles", "p05", month), ".1%"),
                          V((*base, "funding_ratio_percentiles", "p50", month), ".1%")))
-    from ._report_content import money
 
     table = Table(("policy", "month", "P(funding ratio below one)", "P(below the required level)",
                    f"surplus at risk [{money(data)}]", f"expected shortfall [{money(data)}]", "funding ratio p05",

@@ -7,6 +7,7 @@ import numpy as np
 from snapo_ode import Figure, Heading, Highlights, Paragraph, Section, Table, Value
 
 from ._factors import tenor_label
+from ._report_board import board_section, money
 
 V = Value
 GROUP_TITLES = {"key_rates": "Key rates", "inflation": "Inflation", "spread": "Credit spread",
@@ -19,11 +20,6 @@ def _policy_paths(data: dict, name: str) -> dict:
     base = () if name == data["policy_names"][0] else ("baselines", name)
     return {"objective": (*base, "objective"), "objective_smooth": (*base, "objective_smooth"),
             "funding_ratio": (*base, "funding_ratio"), "mean_surplus": (*base, "mean_surplus")}
-
-
-def money(data: dict) -> str:
-    """The unit of the report's money: millions of the fund's currency."""
-    return f"million {data['currency']}"
 
 
 def summary_section(data: dict) -> Section:
@@ -175,7 +171,6 @@ def appendix_section(data: dict) -> Section:
 
 
 def sections(data: dict) -> tuple[Section, ...]:
-    from ._report_board import board_section
 
     return (summary_section(data), outcome_section(data), board_section(data), ladder_section(data),
             policy_section(data), methods_section(data), appendix_section(data))
