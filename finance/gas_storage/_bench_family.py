@@ -83,12 +83,24 @@ def run_family_benchmark(out: pathlib.Path, *, paths: int, cases: int | None, se
                          **{key: getattr(comparison, key) for key in (
                              "lsmc_out_of_sample", "snapo_out_of_sample", "snapo_minus_lsmc", "snapo_minus_lsmc_se",
                              "dual_upper_bound", "dual_relaxation", "snapo_gap", "lsmc_gap", "snapo_seconds")}})
-            print(format_table(rows[-1:], COLUMNS), flush=True)
-            met = sum(row["goals"] == "all" for row in rows)
-            written = write_table(out, "bench_gas_family", rows, {"results": results, "paths": paths, "seed": seed,
-                                                                  "nodes": nodes, "goals_met": met})
-    print(f"\nGas-storage family ({len(rows)} rows, seed {seed}, {paths:,} fresh evaluation paths, "
-          f"{time.perf_counter() - start:.0f} s): every goal met in {met} of {len(rows)}")
-    print(format_table(rows, COLUMNS))
-    print(f"written: {', '.join(map(str, written))}")
+            written = record_row(out, "bench_gas_family", rows, COLUMNS, {"results": results, "paths": paths,
+                                                                            "seed": seed, "nodes": nodes})
+    summarise(f"Gas-storage family ({len(rows)} rows, seed {seed}, {paths:,} fresh evaluation paths, "
+              f"{time.perf_counter() - start:.0f} s)", rows, COLUMNS, written)
     return rows
+
+
+def record_row(out, name: str, rows: list[dict], columns, meta: dict) -> list:
+    """Print the family's newest row and write every row so far (`write_table` under `out`, with
+    `meta` and the count of rows meeting every goal), so that a long run that stops keeps them;
+    returns the files written."""
+    print(format_table(rows[-1:], columns), flush=True)
+    return write_table(out, name, rows, {**meta, "goals_met": sum(row["goals"] == "all" for row in rows)})
+
+
+def summarise(title: str, rows: list[dict], columns, written) -> None:
+    """The family's closing lines: `title`, how many rows met every goal, the table, the files."""
+    met = sum(row["goals"] == "all" for row in rows)
+    print(f"\n{title}: every goal met in {met} of {len(rows)}")
+    print(format_table(rows, columns))
+    print(f"written: {', '.join(map(str, written))}")

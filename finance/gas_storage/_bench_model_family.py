@@ -9,9 +9,9 @@ import time
 
 import jax
 
-from snapo_ode import Column, format_table, write_table
+from snapo_ode import Column
 
-from ._bench_family import chosen_cases
+from ._bench_family import chosen_cases, record_row, summarise
 from ._inputs import make_inputs
 from ._model_study import value_on_model
 from ._price_model_file import sample_price_model
@@ -79,12 +79,8 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
             "snapo_seconds")}, "warning_count": len(result["warnings"])}
         row["goals"] = _goals(row)
         rows.append(row)
-        print(format_table(rows[-1:], COLUMNS), flush=True)
-        met = sum(r["goals"] == "all" for r in rows)
-        written = write_table(out, name, rows, {"results": results, "paths": paths, "seed": seed, "nodes": nodes,
-                                                "price_model": model_name, "goals_met": met})
-    print(f"\nGas-storage family under the {model_name} model ({len(rows)} rows, seed {seed}, {paths:,} fresh "
-          f"evaluation paths, {time.perf_counter() - start:.0f} s): every goal met in {met} of {len(rows)}")
-    print(format_table(rows, COLUMNS))
-    print(f"written: {', '.join(map(str, written))}")
+        written = record_row(out, name, rows, COLUMNS, {"results": results, "paths": paths, "seed": seed,
+                                                         "nodes": nodes, "price_model": model_name})
+    summarise(f"Gas-storage family under the {model_name} model ({len(rows)} rows, seed {seed}, {paths:,} fresh "
+              f"evaluation paths, {time.perf_counter() - start:.0f} s)", rows, COLUMNS, written)
     return rows
