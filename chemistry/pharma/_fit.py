@@ -31,7 +31,7 @@ RANK_TOLERANCE = 1e-8
 
 
 class FitResult(NamedTuple):
-    """A fit: `names` (reported coordinates: ln_k_ref[eq] / log_multiplier[eq] [-], E_a[eq]
+    """A fit: `names` (reported coordinates: `ln_k_ref[eq]` / `log_multiplier[eq]` [-], `E_a[eq]`
     [kJ/mol]), `estimates`, `covariance` (in those coordinates), `theta` and `theta_covariance`
     (the internal coordinates, what a posterior file stores), `fitted` (`FittedParameters`),
     `chi_square`, `dof`, `scale` (s^2, 1 with known sds), `sd_known`, `residuals` (weighted, in
