@@ -113,13 +113,28 @@ def run_report(args) -> int:
     return publish_report(args, pharma_report(data, report_provenance(chain, inputs, command=args.command_line)))
 
 
-def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
-    """The design space's grid, uncertainty, level and verification."""
+def add_grid_arguments(parser: argparse.ArgumentParser) -> None:
+    """The design space's grid: its two CPPs and the points per CPP."""
     parser.add_argument("--x", default=None, help="the CPP on the map's horizontal axis (default: the process's first; "
                         "the built-in: r1_temperature)")
     parser.add_argument("--y", default=None, help="the CPP on the map's vertical axis (default: the process's last; "
                         "the built-in: dryer_temperature)")
     parser.add_argument("--points", type=count(), default=21, help="grid points per CPP over its PAR (default 21)")
+
+
+def grid_settings(args):
+    """The `DesignSpaceSettings` of the grid flags (`add_grid_arguments`), checked against the
+    process's CPPs read from its file, before anything is built or computed."""
+    from ._design_space import DesignSpaceSettings
+    from ._process_file import load_process
+
+    return DesignSpaceSettings(x=args.x, y=args.y, cpp_names=tuple(spec.name for spec in load_process(args.process).cpps),
+                               points=args.points)
+
+
+def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
+    """The design space's grid, uncertainty, level and verification."""
+    add_grid_arguments(parser)
     parser.add_argument("--level", "--confidence", type=number(0, 1, low_open=True, high_open=True), default=0.95, dest="level",
                         help="the probability of meeting every spec that defines the design space (default 0.95)")
     parser.add_argument("--sigma", type=positive(2), default=0.1, help="standard deviation of each uncertain ln k")
