@@ -129,7 +129,7 @@ def grid_settings(args):
     from ._process_file import load_process
 
     return DesignSpaceSettings(x=args.x, y=args.y, cpp_names=tuple(spec.name for spec in load_process(args.process).cpps),
-                               points=args.points)
+                               points=args.points, curvature_points=0, verify_points=1)  # the grid alone
 
 
 def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
