@@ -9,7 +9,7 @@ import sys
 from snapo_ode.cli import count, number, numbers, positive, add_device_options, add_training_options
 
 from ._chain_cli import add_chain_arguments, chain_from_args
-from ._fit_cli import add_posterior_argument, posterior_option, register_fit
+from ._fit_cli import add_grid_arguments, add_posterior_argument, posterior_option, register_fit
 
 
 def add_accuracy_arguments(parser: argparse.ArgumentParser) -> None:
@@ -111,25 +111,6 @@ def run_report(args) -> int:
     if not is_writer():
         return 0
     return publish_report(args, pharma_report(data, report_provenance(chain, inputs, command=args.command_line)))
-
-
-def add_grid_arguments(parser: argparse.ArgumentParser) -> None:
-    """The design space's grid: its two CPPs and the points per CPP."""
-    parser.add_argument("--x", default=None, help="the CPP on the map's horizontal axis (default: the process's first; "
-                        "the built-in: r1_temperature)")
-    parser.add_argument("--y", default=None, help="the CPP on the map's vertical axis (default: the process's last; "
-                        "the built-in: dryer_temperature)")
-    parser.add_argument("--points", type=count(), default=21, help="grid points per CPP over its PAR (default 21)")
-
-
-def grid_settings(args):
-    """The `DesignSpaceSettings` of the grid flags (`add_grid_arguments`), checked against the
-    process's CPPs read from its file, before anything is built or computed."""
-    from ._design_space import DesignSpaceSettings
-    from ._process_file import load_process
-
-    return DesignSpaceSettings(x=args.x, y=args.y, cpp_names=tuple(spec.name for spec in load_process(args.process).cpps),
-                               points=args.points, curvature_points=0, verify_points=1)  # the grid alone
 
 
 def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:

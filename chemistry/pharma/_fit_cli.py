@@ -2,13 +2,14 @@
 beside it (`.posterior.json`), which `snapo pharma design-space --posterior` and `snapo report
 pharma --posterior` draw from."""
 
+import argparse
 import dataclasses
 import time
 
 import numpy as np
 
 from snapo_ode import InputError, Result
-from snapo_ode.cli import numbers
+from snapo_ode.cli import count, numbers
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -162,7 +163,6 @@ def run_next_experiment(args) -> int:
     from ._fit import fit
     from snapo_ode import check_choice
 
-    from ._cli import grid_settings
     from ._edge_uncertainty import edge_map
     from ._next_experiment import RANKINGS, rank_candidates
     from ._posterior import posterior_from_fit
@@ -201,6 +201,25 @@ def _finish(report, path) -> int:
     return 0
 
 
+def add_grid_arguments(parser: argparse.ArgumentParser) -> None:
+    """The design space's grid: its two CPPs and the points per CPP."""
+    parser.add_argument("--x", default=None, help="the CPP on the map's horizontal axis (default: the process's first; "
+                        "the built-in: r1_temperature)")
+    parser.add_argument("--y", default=None, help="the CPP on the map's vertical axis (default: the process's last; "
+                        "the built-in: dryer_temperature)")
+    parser.add_argument("--points", type=count(), default=21, help="grid points per CPP over its PAR (default 21)")
+
+
+def grid_settings(args):
+    """The `DesignSpaceSettings` of the grid flags (`add_grid_arguments`), checked against the
+    process's CPPs read from its file, before anything is built or computed."""
+    from ._design_space import DesignSpaceSettings
+    from ._process_file import load_process
+
+    return DesignSpaceSettings(x=args.x, y=args.y, cpp_names=tuple(spec.name for spec in load_process(args.process).cpps),
+                               points=args.points, curvature_points=0, verify_points=1)  # the grid alone
+
+
 def add_posterior_argument(parser) -> None:
     parser.add_argument("--posterior", default=None, metavar="FILE", help="draw the rate parameters from a fit's "
                         "posterior file (snapo pharma fit's .posterior.json: correlated, at the fitted values) instead "
@@ -226,8 +245,6 @@ def register_fit(cli, pharma) -> None:
     _lab_arguments(command)
     command.add_argument("--no-profile", action="store_true", help="skip the profile-likelihood intervals")
     command.set_defaults(handler=run_fit)
-    from ._cli import add_grid_arguments
-
     following = cli.command("next-experiment", "rank candidate experiments by the expected reduction of the fitted "
                             "parameters' uncertainty (D-optimal on the Fisher information) or of the design space's "
                             "edge uncertainty", group=pharma)
