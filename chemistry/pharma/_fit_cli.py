@@ -133,6 +133,8 @@ class NextExperiment(Result):
     ranking: list
     rank_by: str = "d-optimal"
     edge: dict | None = None
+    seconds: dict | None = None
+    """The fit, the edge map (the grid's Jacobians) and the ranking (the candidates' Jacobians)."""
 
     def summary(self) -> str:
         by = "the gain of ln det(Fisher information)" if self.rank_by == "d-optimal" else \
@@ -141,8 +143,8 @@ class NextExperiment(Result):
         for row in self.ranking[:10]:
             worst = max(row["standard_error_ratio"].items(), key=lambda item: item[1])
             best = min(row["standard_error_ratio"].items(), key=lambda item: item[1])
-            edge = f"; edge uncertainty {row['edge_uncertainty_now']:.3g} -> {row['edge_uncertainty_after']:.3g}" \
-                if "edge_gain" in row else ""
+            edge = "" if "edge_gain" not in row else "; no edge in the grid" if row["edge_uncertainty_now"] == 0 else \
+                f"; edge uncertainty x{row['edge_uncertainty_after'] / row['edge_uncertainty_now']:.3f}"
             lines.append(f"  {row['name']} ({row['temperature_K']:.2f} K): +{row['log_det_gain']:.3f}; standard error "
                          f"of {best[0]} x{best[1]:.3f} (the least helped: {worst[0]} x{worst[1]:.3f}){edge}")
         if self.edge is not None:
@@ -177,12 +179,16 @@ def run_next_experiment(args) -> int:
     unknown = [s for s in measured if s not in species]
     if unknown or not measured:
         raise InputError(f"--species = {args.species!r}; allowed: species of the mechanism ({', '.join(species)}).")
+    start = time.perf_counter()
     result = fit(chain, data, args.fit or None, profile=False)
     posterior = posterior_from_fit(result, chain, chain.process.name)
     (x, y), mesh = grid.axes, getattr(args, "mesh", None)
+    seconds = {"fit": time.perf_counter() - start}
     edge = edge_map(chain, inputs, posterior, x=x, y=y, points=grid.points, mesh=mesh)
+    seconds["edge_map"] = time.perf_counter() - start - seconds["fit"]
     ranking = rank_candidates(chain, data, result, candidates, list(args.times), measured, edge=edge,
                               rank_by=args.rank_by)
+    seconds["ranking"] = time.perf_counter() - start - seconds["fit"] - seconds["edge_map"]
     by_limit, length = edge.uncertainty_by_limit(posterior.covariance), edge.edge_length()
     report = NextExperiment(process=chain.process.name, criterion=CRITERIA[args.rank_by],
                             current={name: {"estimate": float(v), "standard_error": float(s)} for name, v, s in
@@ -191,7 +197,8 @@ def run_next_experiment(args) -> int:
                             edge={"x": x, "y": y, "points": grid.points, "x_values": edge.xs.tolist(),
                                   "y_values": edge.ys.tolist(), "uncertainty_now": float(by_limit.sum()),
                                   "limits": {name: {"uncertainty_now": float(u), "edge_length": float(n)}
-                                             for name, u, n in zip(edge.limits, by_limit, length, strict=True)}})
+                                             for name, u, n in zip(edge.limits, by_limit, length, strict=True)}},
+                            seconds=seconds)
     return _finish(report, args.json)
 
 
