@@ -257,18 +257,28 @@ def _verb(tmp_path, lab, candidates) -> list[str]:
             "--times", "30,90", "--points", "3", "--json", str(tmp_path / "next.json")]
 
 
-def test_candidates_ranked_by_the_design_space_edge(ranked, lab, tmp_path, capsys):
-    from snapo_ode.cli import main
-
+@pytest.mark.slow
+def test_candidates_ranked_by_the_design_space_edge(ranked):
+    # Slow for its fit and the candidates' Jacobian compiles (30-50 s here); the edge's arithmetic, the gain's sign and
+    # its zero without information are tested fast in test_pharma_edge.py.
     candidates, by_edge = ranked
     assert by_edge[0]["edge_uncertainty_now"] > 0
     gains = [row["edge_gain"] for row in by_edge]
     assert gains == sorted(gains, reverse=True) and min(gains) >= 0 and gains[0] > 0
     nothing = next(row for row in by_edge if row["name"] == "nothing")
     assert nothing["edge_gain"] == 0.0 and abs(nothing["log_det_gain"]) < 1e-9
-    # A bad value of the flag is refused in one line, before any compile.
-    assert main([*_verb(tmp_path, lab, candidates), "--rank-by", "volume"]) == 2
-    assert capsys.readouterr().err.strip() == "snapo: error: --rank-by = 'volume' is not one of: 'd-optimal', 'edge'."
+
+
+def test_next_experiment_refuses_a_bad_ranking_or_grid_in_one_line(lab, tmp_path, capsys):
+    from snapo_ode.cli import main
+
+    verb = _verb(tmp_path, lab, (Experiment("hot", "r1", 333.15, {"A": 0.33, "B": 0.363}),))
+    for flags, message in ((["--rank-by", "volume"], "--rank-by = 'volume' is not one of: 'd-optimal', 'edge'."),
+                           (["--x", "r2_temperature"], "x = 'r2_temperature' is not one of: "),
+                           (["--points", "2"], "points = 2; allowed: a whole number in [3, 201].")):
+        assert main([*verb, *flags]) == 2
+        error = capsys.readouterr().err.strip()
+        assert error.startswith(f"snapo: error: {message}") and "\n" not in error
 
 
 @pytest.mark.slow
