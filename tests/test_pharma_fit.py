@@ -223,3 +223,79 @@ def test_fit_verb_writes_the_json_and_the_posterior(chain, lab, tmp_path, capsys
         for key in value.path:
             entry = entry[key]
         assert entry is not None, value.path
+
+
+def _ranked_by_edge(chain, lab):
+    """A fit of the lab data, the edge map over r1_temperature x dryer_temperature under its posterior, and three
+    candidates ranked by the edge: hot, cold, and one with no A charged (nothing reacts, so its measurements depend
+    on no parameter: a Jacobian of zeros)."""
+    from chemistry.pharma._edge_uncertainty import edge_map
+    from chemistry.pharma._next_experiment import rank_candidates
+
+    data, _, _ = lab
+    result = fit(chain, data, FIT, profile=False)
+    edge = edge_map(chain, chain.inputs(make_cpps()), posterior_from_fit(result, chain, "api_chain"),
+                    x="r1_temperature", y="dryer_temperature", points=3)
+    candidates = (Experiment("hot", "r1", 333.15, {"A": 0.33, "B": 0.363}),
+                  Experiment("cold", "r1", 298.15, {"A": 0.33, "B": 0.363}),
+                  Experiment("nothing", "r1", 313.15, {"A": 0.0, "B": 0.363}))
+    return candidates, rank_candidates(chain, data, result, candidates, [30, 90], ["A", "P", "I"], edge=edge,
+                                       rank_by="edge")
+
+
+@pytest.fixture(scope="module")
+def ranked(chain, lab):
+    return _ranked_by_edge(chain, lab)
+
+
+def _verb(tmp_path, lab, candidates) -> list[str]:
+    data, _, _ = lab
+    paths = _write(tmp_path, experiments_yaml(data, "test"), data_csv(data))
+    (tmp_path / "c.yaml").write_text(experiments_yaml(data._replace(experiments=candidates), "candidates"))
+    return ["pharma", "next-experiment", "--experiments", str(paths[0]), "--data", str(paths[1]),
+            *(f"--fit={name}" for name in FIT), "--candidates", str(tmp_path / "c.yaml"), "--species", "A,P,I",
+            "--times", "30,90", "--points", "3", "--json", str(tmp_path / "next.json")]
+
+
+@pytest.mark.slow
+def test_candidates_ranked_by_the_design_space_edge(ranked):
+    # Slow for its fit and the candidates' Jacobian compiles (30-50 s here); the edge's arithmetic, the gain's sign and
+    # its zero without information are tested fast in test_pharma_edge.py.
+    candidates, by_edge = ranked
+    assert by_edge[0]["edge_uncertainty_now"] > 0
+    gains = [row["edge_gain"] for row in by_edge]
+    assert gains == sorted(gains, reverse=True) and min(gains) >= 0 and gains[0] > 0
+    nothing = next(row for row in by_edge if row["name"] == "nothing")
+    assert nothing["edge_gain"] == 0.0 and abs(nothing["log_det_gain"]) < 1e-9
+
+
+def test_next_experiment_refuses_a_bad_ranking_or_grid_in_one_line(lab, tmp_path, capsys):
+    from snapo_ode.cli import main
+
+    verb = _verb(tmp_path, lab, (Experiment("hot", "r1", 333.15, {"A": 0.33, "B": 0.363}),))
+    for flags, message in ((["--rank-by", "volume"], "--rank-by = 'volume' is not one of: 'd-optimal', 'edge'."),
+                           (["--x", "r2_temperature"], "x = 'r2_temperature' is not one of: "),
+                           (["--points", "2"], "points = 2; allowed: a whole number in [3, 201].")):
+        assert main([*verb, *flags]) == 2
+        error = capsys.readouterr().err.strip()
+        assert error.startswith(f"snapo: error: {message}") and "\n" not in error
+
+
+@pytest.mark.slow
+def test_next_experiment_verb_reports_the_edge_for_every_candidate(ranked, lab, tmp_path):
+    # By default D-optimal as before; the edge's fields on every candidate all the same.
+    from snapo_ode.cli import main
+
+    candidates, by_edge = ranked
+    assert main(_verb(tmp_path, lab, candidates)) == 0
+    written = json.loads((tmp_path / "next.json").read_text())
+    assert written["rank_by"] == "d-optimal" and written["criterion"] == "D-optimal: ln det(F + J_c^T J_c) - ln det F"
+    information = [row["log_det_gain"] for row in written["ranking"]]
+    assert information == sorted(information, reverse=True)
+    expected = {row["name"]: row for row in by_edge}
+    for row in written["ranking"]:
+        assert row["log_det_gain"] == pytest.approx(expected[row["name"]]["log_det_gain"], rel=1e-5, abs=1e-9)
+        assert row["edge_gain"] == pytest.approx(expected[row["name"]]["edge_gain"], rel=1e-5, abs=1e-15)
+        assert row["edge_gain"] == pytest.approx(row["edge_uncertainty_now"] - row["edge_uncertainty_after"], abs=1e-15)
+    assert written["edge"]["x"] == "r1_temperature" and written["edge"]["points"] == 3
+    assert written["edge"]["uncertainty_now"] == pytest.approx(by_edge[0]["edge_uncertainty_now"], rel=1e-5)

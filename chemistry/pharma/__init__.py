@@ -15,6 +15,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                        "SpeciesRoles", "solubility"),
     "._design_space": ("DesignSpace", "DesignSpaceSettings", "default_uncertain", "design_space"),
     "._dryer": ("Dryer", "DryerOutlet"),
+    "._edge_uncertainty": ("EdgeMap", "edge_map"),
     "._experiments": ("ErrorModel", "Experiment", "LabData", "Measurements", "read_experiments", "read_lab_data",
                       "read_measurements"),
     "._filter": ("Filter", "FilterStreams"),

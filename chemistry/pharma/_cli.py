@@ -9,7 +9,7 @@ import sys
 from snapo_ode.cli import count, number, numbers, positive, add_device_options, add_training_options
 
 from ._chain_cli import add_chain_arguments, chain_from_args
-from ._fit_cli import add_posterior_argument, posterior_option, register_fit
+from ._fit_cli import add_grid_arguments, add_posterior_argument, posterior_option, register_fit
 
 
 def add_accuracy_arguments(parser: argparse.ArgumentParser) -> None:
@@ -115,11 +115,7 @@ def run_report(args) -> int:
 
 def add_design_space_arguments(parser: argparse.ArgumentParser) -> None:
     """The design space's grid, uncertainty, level and verification."""
-    parser.add_argument("--x", default=None, help="the CPP on the map's horizontal axis (default: the process's first; "
-                        "the built-in: r1_temperature)")
-    parser.add_argument("--y", default=None, help="the CPP on the map's vertical axis (default: the process's last; "
-                        "the built-in: dryer_temperature)")
-    parser.add_argument("--points", type=count(), default=21, help="grid points per CPP over its PAR (default 21)")
+    add_grid_arguments(parser)
     parser.add_argument("--level", "--confidence", type=number(0, 1, low_open=True, high_open=True), default=0.95, dest="level",
                         help="the probability of meeting every spec that defines the design space (default 0.95)")
     parser.add_argument("--sigma", type=positive(2), default=0.1, help="standard deviation of each uncertain ln k")

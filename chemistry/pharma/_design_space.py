@@ -189,11 +189,7 @@ def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None 
 
     start = time.perf_counter()
     evaluate_many = jacobians_function(chain, True, "reverse", mesh)
-    grid = [grid_inputs(inputs, x, y, vx, vy) for vx in xs for vy in ys]
-    pairs = [log_sensitivities(result, chain, inputs, uncertain, scales)
-             for inputs, result in zip(grid, evaluate_many(grid))]
-    values = np.array([value for value, _ in pairs]).reshape(points, points, len(cqa_names))
-    slopes = np.array([slope for _, slope in pairs]).reshape(points, points, len(cqa_names), len(uncertain))
+    values, slopes = grid_sensitivities(evaluate_many, chain, inputs, (x, xs), (y, ys), uncertain, scales)
     hessians = np.zeros(slopes.shape + (len(uncertain),))
     if curvature_points:
         cx, cy = np.linspace(*ranges[x].par, curvature_points), np.linspace(*ranges[y].par, curvature_points)
@@ -236,6 +232,21 @@ def design_space(chain: PharmaChain, cpps: CPPs | ChainInputs, *, x: str | None 
         verification=verification,
         seconds={"surrogate": surrogate_seconds, "monte_carlo": time.perf_counter() - start},
         uncertainty=None if posterior is None else posterior_summary(posterior))
+
+
+def grid_sensitivities(evaluate_many, chain: PharmaChain, inputs: ChainInputs, x: tuple[str, np.ndarray],
+                       y: tuple[str, np.ndarray], uncertain, scales) -> tuple[np.ndarray, np.ndarray]:
+    """The CQAs (n_x, n_y, n_cqas) and their log sensitivities S = d ln CQA / d coordinate
+    (n_x, n_y, n_cqas, m) of the `uncertain` inputs (`log_sensitivities`) at every point of the
+    grid `x` = (CPP name, values) by `y`, one reverse-mode Jacobian per point through
+    `evaluate_many` (`jacobians_function`)."""
+    (x, xs), (y, ys) = x, y
+    grid = [grid_inputs(inputs, x, y, vx, vy) for vx in xs for vy in ys]
+    pairs = [log_sensitivities(result, chain, point, uncertain, scales)
+             for point, result in zip(grid, evaluate_many(grid))]
+    shape = (len(xs), len(ys), len(chain.cqa_names))
+    return (np.array([value for value, _ in pairs]).reshape(shape),
+            np.array([slope for _, slope in pairs]).reshape(*shape, len(uncertain)))
 
 
 def _verify(chain, inputs, x, y, xs, ys, chosen, draws, surrogate, probability, uncertain, scales, mesh) -> dict:

@@ -2,13 +2,14 @@
 beside it (`.posterior.json`), which `snapo pharma design-space --posterior` and `snapo report
 pharma --posterior` draw from."""
 
+import argparse
 import dataclasses
 import time
 
 import numpy as np
 
 from snapo_ode import InputError, Result
-from snapo_ode.cli import numbers
+from snapo_ode.cli import count, numbers
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -118,9 +119,11 @@ def run_fit(args) -> int:
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class NextExperiment(Result):
-    """Candidate experiments ranked D-optimally (`_next_experiment.rank_candidates`): `ranking`
-    (best first), the `current` fit's parameters and standard errors, the `times` [min] and
-    `species` each candidate samples."""
+    """Candidate experiments ranked (`_next_experiment.rank_candidates`) by `rank_by` (d-optimal
+    or edge; `criterion` says how): `ranking` (best first), the `current` fit's parameters and
+    standard errors, the `times` [min] and `species` each candidate samples, and `edge`: the
+    design space's grid (x, y, points), its spec `limits` with each one's edge uncertainty and
+    edge length now, and the edge uncertainty now (`_edge_uncertainty`)."""
 
     process: str
     criterion: str
@@ -128,24 +131,47 @@ class NextExperiment(Result):
     times: list
     species: list
     ranking: list
+    rank_by: str = "d-optimal"
+    edge: dict | None = None
+    seconds: dict | None = None
+    """The fit, the edge map (the grid's Jacobians) and the ranking (the candidates' Jacobians)."""
 
     def summary(self) -> str:
-        lines = [f"{len(self.ranking)} candidates ranked by the gain of ln det(Fisher information):"]
+        by = "the gain of ln det(Fisher information)" if self.rank_by == "d-optimal" else \
+            "the expected reduction of the design space's edge uncertainty"
+        lines = [f"{len(self.ranking)} candidates ranked by {by}:"]
         for row in self.ranking[:10]:
             worst = max(row["standard_error_ratio"].items(), key=lambda item: item[1])
             best = min(row["standard_error_ratio"].items(), key=lambda item: item[1])
+            edge = "" if "edge_gain" not in row else "; no edge in the grid" if row["edge_uncertainty_now"] == 0 else \
+                f"; edge uncertainty x{row['edge_uncertainty_after'] / row['edge_uncertainty_now']:.3f}"
             lines.append(f"  {row['name']} ({row['temperature_K']:.2f} K): +{row['log_det_gain']:.3f}; standard error "
-                         f"of {best[0]} x{best[1]:.3f} (the least helped: {worst[0]} x{worst[1]:.3f})")
+                         f"of {best[0]} x{best[1]:.3f} (the least helped: {worst[0]} x{worst[1]:.3f}){edge}")
+        if self.edge is not None:
+            lines.append(f"edge uncertainty of the design space over {self.edge['x']} x {self.edge['y']} now: "
+                         f"{self.edge['uncertainty_now']:.4g} (edge length x location sd, a fraction of the PAR box)")
         return "\n".join(lines)
+
+
+CRITERIA = {"d-optimal": "D-optimal: ln det(F + J_c^T J_c) - ln det F",
+            "edge": "edge: U(C) - U(C_c), U the design space's edge uncertainty (its spec limits' edges' location "
+                    "standard deviation integrated along them, the CPPs scaled to their PARs), C the fitted "
+                    "covariance, C_c = (C^-1 + J_c^T J_c)^-1"}
 
 
 def run_next_experiment(args) -> int:
     from ._chain_cli import chain_from_args
     from ._experiments import read_experiments, read_lab_data
     from ._fit import fit
-    from ._next_experiment import rank_candidates
+    from snapo_ode import check_choice
 
-    chain, _ = chain_from_args(args)
+    from ._edge_uncertainty import edge_map
+    from ._next_experiment import RANKINGS, rank_candidates
+    from ._posterior import posterior_from_fit
+
+    check_choice("--rank-by", args.rank_by, tuple(RANKINGS))
+    grid = grid_settings(args)
+    chain, inputs = chain_from_args(args)
     species = tuple(chain.mechanism.species_names)
     data = read_lab_data(args.experiments, args.data, chain.process, species)
     candidates, _ = read_experiments(args.candidates, chain.process, species)
@@ -153,12 +179,26 @@ def run_next_experiment(args) -> int:
     unknown = [s for s in measured if s not in species]
     if unknown or not measured:
         raise InputError(f"--species = {args.species!r}; allowed: species of the mechanism ({', '.join(species)}).")
+    start = time.perf_counter()
     result = fit(chain, data, args.fit or None, profile=False)
-    ranking = rank_candidates(chain, data, result, candidates, list(args.times), measured)
-    report = NextExperiment(process=chain.process.name, criterion="D-optimal: ln det(F + J_c^T J_c) - ln det F",
+    posterior = posterior_from_fit(result, chain, chain.process.name)
+    (x, y), mesh = grid.axes, getattr(args, "mesh", None)
+    seconds = {"fit": time.perf_counter() - start}
+    edge = edge_map(chain, inputs, posterior, x=x, y=y, points=grid.points, mesh=mesh)
+    seconds["edge_map"] = time.perf_counter() - start - seconds["fit"]
+    ranking = rank_candidates(chain, data, result, candidates, list(args.times), measured, edge=edge,
+                              rank_by=args.rank_by)
+    seconds["ranking"] = time.perf_counter() - start - seconds["fit"] - seconds["edge_map"]
+    by_limit, length = edge.uncertainty_by_limit(posterior.covariance), edge.edge_length()
+    report = NextExperiment(process=chain.process.name, criterion=CRITERIA[args.rank_by],
                             current={name: {"estimate": float(v), "standard_error": float(s)} for name, v, s in
                                      zip(result.names, result.estimates, result.standard_errors, strict=True)},
-                            times=list(args.times), species=measured, ranking=ranking)
+                            times=list(args.times), species=measured, ranking=ranking, rank_by=args.rank_by,
+                            edge={"x": x, "y": y, "points": grid.points, "x_values": edge.xs.tolist(),
+                                  "y_values": edge.ys.tolist(), "uncertainty_now": float(by_limit.sum()),
+                                  "limits": {name: {"uncertainty_now": float(u), "edge_length": float(n)}
+                                             for name, u, n in zip(edge.limits, by_limit, length, strict=True)}},
+                            seconds=seconds)
     return _finish(report, args.json)
 
 
@@ -166,6 +206,25 @@ def _finish(report, path) -> int:
     print(report.summary())
     print(f"written: {report.write_json(path)}")
     return 0
+
+
+def add_grid_arguments(parser: argparse.ArgumentParser) -> None:
+    """The design space's grid: its two CPPs and the points per CPP."""
+    parser.add_argument("--x", default=None, help="the CPP on the map's horizontal axis (default: the process's first; "
+                        "the built-in: r1_temperature)")
+    parser.add_argument("--y", default=None, help="the CPP on the map's vertical axis (default: the process's last; "
+                        "the built-in: dryer_temperature)")
+    parser.add_argument("--points", type=count(), default=21, help="grid points per CPP over its PAR (default 21)")
+
+
+def grid_settings(args):
+    """The `DesignSpaceSettings` of the grid flags (`add_grid_arguments`), checked against the
+    process's CPPs read from its file, before anything is built or computed."""
+    from ._design_space import DesignSpaceSettings
+    from ._process_file import load_process
+
+    return DesignSpaceSettings(x=args.x, y=args.y, cpp_names=tuple(spec.name for spec in load_process(args.process).cpps),
+                               points=args.points, curvature_points=0, verify_points=1)  # the grid alone
 
 
 def add_posterior_argument(parser) -> None:
@@ -194,7 +253,8 @@ def register_fit(cli, pharma) -> None:
     command.add_argument("--no-profile", action="store_true", help="skip the profile-likelihood intervals")
     command.set_defaults(handler=run_fit)
     following = cli.command("next-experiment", "rank candidate experiments by the expected reduction of the fitted "
-                            "parameters' uncertainty (D-optimal on the Fisher information)", group=pharma)
+                            "parameters' uncertainty (D-optimal on the Fisher information) or of the design space's "
+                            "edge uncertainty", group=pharma)
     add_chain_arguments(following)
     _lab_arguments(following)
     following.add_argument("--candidates", required=True, metavar="FILE", help="the candidate experiments (YAML, as "
@@ -202,6 +262,10 @@ def register_fit(cli, pharma) -> None:
     following.add_argument("--times", type=numbers(0), default="5,10,20,30,45,60,90,120",
                            help="sampling times of each candidate [min], comma-separated")
     following.add_argument("--species", required=True, help="the species each candidate measures, comma-separated")
+    following.add_argument("--rank-by", default="d-optimal", help="d-optimal (the gain of ln det of the Fisher "
+                           "information; default) or edge (the expected reduction of the design space's edge "
+                           "uncertainty over --x and --y); both are reported for every candidate")
+    add_grid_arguments(following)
     following.set_defaults(handler=run_next_experiment)
 
 

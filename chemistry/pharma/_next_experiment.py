@@ -2,7 +2,9 @@
 parameters, D-optimal on the Fisher information: the gain of ln det(F + J_c^T W J_c) over ln det F,
 with F the current fit's information (J^T J of its weighted residuals, divided by its scale) and
 J_c the candidate's Jacobian at the current estimates, its weights from the error model at the
-predicted values. Also each parameter's standard error after the candidate, against now."""
+predicted values. Also each parameter's standard error after the candidate, against now, and,
+given the design space's `EdgeMap` under the fit's posterior, the edge uncertainty expected after
+the candidate against now (`_edge_uncertainty`): the other ranking, by the design space's edge."""
 
 import numpy as np
 
@@ -14,14 +16,22 @@ from ._fit_model import experiment_model
 from ._fit_synthetic import lab_design
 
 
+RANKINGS = {"d-optimal": "log_det_gain", "edge": "edge_gain"}
+"""The rankings by name, each by its field of a candidate's row."""
+
+
 def rank_candidates(chain, data: LabData, result: FitResult, candidates, times: list[float],
-                    species: list[str]) -> list[dict]:
-    """Each candidate (`Experiment`) sampled at `times` [min] for `species`, ranked best first:
-    {name, temperature_K, charges, log_det_gain, standard_errors_after (name -> value),
-    standard_error_ratio (after / now, per parameter)}.
+                    species: list[str], *, edge=None, rank_by: str = "d-optimal") -> list[dict]:
+    """Each candidate (`Experiment`) sampled at `times` [min] for `species`, ranked best first by
+    `rank_by` (`RANKINGS`): {name, temperature_K, charges, log_det_gain, standard_errors_after
+    (name -> value), standard_error_ratio (after / now, per parameter)}; with `edge` (the
+    `EdgeMap` of the design space under the fit's posterior) also `edge_uncertainty_now`,
+    `edge_uncertainty_after` (expected) and `edge_gain` (their difference, >= 0).
 
     **Raises:** `InputError` for a species the data's error model does not state (its sd would be
-    unknown) when the fit's sds were known."""
+    unknown) when the fit's sds were known, or `rank_by` "edge" without `edge`."""
+    if rank_by not in RANKINGS or (rank_by == "edge" and edge is None):
+        raise InputError(f"rank_by = {rank_by!r}; allowed: {', '.join(RANKINGS)} (edge with the design space's map).")
     missing = [s for s in species if s not in data.error_model]
     if result.sd_known and missing:
         raise InputError(f"--species {missing[0]}: the experiments file's error_model states no sd for it; a candidate's "
@@ -39,6 +49,12 @@ def rank_candidates(chain, data: LabData, result: FitResult, candidates, times: 
     information = np.linalg.pinv(result.theta_covariance)
     now = np.linalg.slogdet(information)[1]
     se_now = result.standard_errors
+    if edge is not None:
+        from ._posterior import coordinate_map
+
+        to_coordinates = coordinate_map(result, chain)[3]
+        coordinates_now = to_coordinates @ result.theta_covariance @ to_coordinates.T
+        edge_now = edge.uncertainty(coordinates_now)
     rows = []
     for e, candidate in enumerate(candidates):
         j = jacobian[plan.measurements.experiment == e]
@@ -50,4 +66,16 @@ def rank_candidates(chain, data: LabData, result: FitResult, candidates, times: 
                      "log_det_gain": float(np.linalg.slogdet(after)[1] - now),
                      "standard_errors_after": dict(zip(result.names, se_after.tolist())),
                      "standard_error_ratio": dict(zip(result.names, (se_after / se_now).tolist()))})
-    return sorted(rows, key=lambda row: -row["log_det_gain"])
+        if edge is not None:
+            coordinates_after = to_coordinates @ updated_covariance(result.theta_covariance, j) @ to_coordinates.T
+            expected = edge.uncertainty(coordinates_after)
+            rows[-1].update(edge_uncertainty_now=edge_now, edge_uncertainty_after=expected, edge_gain=edge_now - expected)
+    return sorted(rows, key=lambda row: -row[RANKINGS[rank_by]])
+
+
+def updated_covariance(covariance: np.ndarray, jacobian: np.ndarray) -> np.ndarray:
+    """The covariance after measurements of weighted Jacobian `jacobian` (n, p): (C^-1 + J^T J)^-1
+    in Woodbury's form, C - C J^T (I + J C J^T)^-1 J C, which needs no inverse of a singular C and
+    returns C itself, exactly, for a J of zeros."""
+    gain = covariance @ jacobian.T
+    return covariance - gain @ np.linalg.solve(np.eye(len(jacobian)) + jacobian @ gain, gain.T)

@@ -54,6 +54,14 @@ class Posterior(NamedTuple):
 def posterior_from_fit(result, chain, process: str, summary: dict | None = None) -> Posterior:
     """The `Posterior` of a fit (`FitResult`): the fitted inputs and the internal covariance mapped linearly
     (log_multiplier = ln_k_ref + d, activation_temperature = T_a0 + d T_ref; coordinate d)."""
+    names, mean, scales, a = coordinate_map(result, chain)
+    return Posterior(names, mean, scales, a @ result.theta_covariance @ a.T, process, summary)
+
+
+def coordinate_map(result, chain) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray]:
+    """(names, mean, scales, A) of a fit's (`FitResult`) posterior: A (m, p) maps the fit's internal
+    parameters onto the posterior's scaled coordinates, so that a covariance C over the former is
+    A C A^T over the latter."""
     fitted, theta = result.fitted, result.theta
     equations = chain.mechanism.reaction_equations
     rates = fitted.to_rates(theta, chain.rate_parameters, equations)
@@ -74,9 +82,7 @@ def posterior_from_fit(result, chain, process: str, summary: dict | None = None)
         row[column] = 1.0
         names.append(f"activation_temperature[{equation}]"), mean.append(float(rates.activation_temperature[j]))
         scales.append(fitted.reference_temperature), rows.append(row)
-    a = np.array(rows)
-    return Posterior(tuple(names), np.array(mean), np.array(scales), a @ result.theta_covariance @ a.T, process,
-                     summary)
+    return tuple(names), np.array(mean), np.array(scales), np.array(rows)
 
 
 def write_posterior(posterior: Posterior, path) -> None:
@@ -134,14 +140,20 @@ def posterior_draws(chain, inputs, posterior: Posterior, seed: int, n: int):
     uncertain input names, their scales, n correlated coordinate draws from `seed`)."""
     import jax
 
+    normals = np.asarray(jax.random.normal(jax.random.key(seed), (n, len(posterior.names))))
+    return posterior_inputs(chain, inputs, posterior), list(posterior.names), posterior.scales.copy(), \
+        posterior.draws(normals)
+
+
+def posterior_inputs(chain, inputs, posterior: Posterior):
+    """`inputs` (`ChainInputs`) with the posterior's rate inputs at its mean."""
     rates, equations = inputs.rates, chain.mechanism.reaction_equations
     fields = {"log_multiplier": rates.log_multiplier, "activation_temperature": rates.activation_temperature}
     for name, value in zip(posterior.names, posterior.mean, strict=True):
         field, _, equation = name.partition("[")
         fields[field] = fields[field].at[equations.index(equation[:-1])].set(value)
     rates = type(rates)(fields["log_multiplier"], rates.temperature_exponent, fields["activation_temperature"])
-    normals = np.asarray(jax.random.normal(jax.random.key(seed), (n, len(posterior.names))))
-    return inputs._replace(rates=rates), list(posterior.names), posterior.scales.copy(), posterior.draws(normals)
+    return inputs._replace(rates=rates)
 
 
 def posterior_summary(posterior: Posterior) -> dict:
