@@ -16,6 +16,7 @@ the medians of each one's seconds and of its ratio to the forward simulation of 
 """
 
 import argparse
+import dataclasses
 import importlib.util
 import json
 import pathlib
@@ -98,7 +99,9 @@ def run_case(process: str, case: dict, datasets: int, repeats: int, against: str
     timed = {"forward": lambda: forward(theta), "jacobian": lambda: programs[1](theta, values, sd_j),
              "two_programs": lambda: two_programs(theta)}
     if against:
-        method = getattr(_rosenbrock_at(against), type(model.solver.solver).__name__)()
+        solver = model.solver.solver  # the same method and options, from the old module
+        method = getattr(_rosenbrock_at(against), type(solver).__name__)(
+            **{field.name: getattr(solver, field.name) for field in dataclasses.fields(solver)})
         old = model._replace(solver=model.solver.replace(solver=method))
         old_forward, old_two = jax.jit(old.predict), _two_programs(old, values, sd_j)
         timed |= {"forward_against": lambda: old_forward(theta), "two_programs_against": lambda: old_two(theta)}

@@ -135,19 +135,20 @@ def test_stage_solve_and_its_derivatives_equal_dense_algebra():
     matrix = rng.standard_normal((5, 5)) + 5 * np.eye(5)
     matrix[0, 0] = 1e-3
     rhs, weights = rng.standard_normal(5), rng.standard_normal(5)
-    factors = _factorise(jnp.asarray(matrix))
+    m, b = jnp.asarray(matrix), jnp.asarray(rhs)
+    factors = _factorise(m)
     assert not np.array_equal(np.asarray(factors[1]), np.arange(5))
     x = np.linalg.solve(matrix, rhs)
-    np.testing.assert_allclose(np.asarray(stage_solve(factors, jnp.asarray(matrix), jnp.asarray(rhs))), x, rtol=1e-13)
+    np.testing.assert_allclose(np.asarray(stage_solve(factors, m, b)), x, rtol=1e-13)
 
     matrix_dots, rhs_dots = rng.standard_normal((3, 5, 5)), rng.standard_normal((3, 5))
-    tangents = jax.vmap(lambda dm, db: jax.jvp(lambda m, b: stage_solve(factors, m, b), (jnp.asarray(matrix), jnp.asarray(rhs)),
-                                               (dm, db))[1])(jnp.asarray(matrix_dots), jnp.asarray(rhs_dots))
+    tangent = jax.vmap(lambda dm, db: jax.jvp(lambda m, b: stage_solve(factors, m, b), (m, b), (dm, db))[1])
     expected = np.stack([np.linalg.solve(matrix, db - dm @ x) for dm, db in zip(matrix_dots, rhs_dots)])
-    np.testing.assert_allclose(np.asarray(tangents), expected, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(np.asarray(tangent(jnp.asarray(matrix_dots), jnp.asarray(rhs_dots))), expected,
+                               rtol=1e-12, atol=1e-13)
 
-    grad_matrix, grad_rhs = jax.grad(lambda m, b: jnp.dot(jnp.asarray(weights), stage_solve(factors, m, b)), argnums=(0, 1))(
-        jnp.asarray(matrix), jnp.asarray(rhs))
+    grad_matrix, grad_rhs = jax.grad(lambda m, b: jnp.dot(jnp.asarray(weights), stage_solve(factors, m, b)),
+                                     argnums=(0, 1))(m, b)
     adjoint = np.linalg.solve(matrix.T, weights)
     np.testing.assert_allclose(np.asarray(grad_rhs), adjoint, rtol=1e-12)
     np.testing.assert_allclose(np.asarray(grad_matrix), -np.outer(adjoint, x), rtol=1e-12, atol=1e-13)
