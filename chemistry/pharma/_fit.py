@@ -105,13 +105,17 @@ def residual_functions(model: ExperimentModel, values: np.ndarray, sd: np.ndarra
 
 
 def residual_programs(model: ExperimentModel):
-    """The jitted (residuals(theta, values, sd), residuals_and_jacobian(theta, values, sd))."""
+    """The jitted (residuals(theta, values, sd), residuals_and_jacobian(theta, values, sd)); the
+    second runs the batched solves once, the residuals and their Jacobian from the same pass."""
 
     def residuals(theta, values, sd):
         return (model.predict(theta) - values) / sd
 
     def with_jacobian(theta, values, sd):
-        return residuals(theta, values, sd), jax.jacfwd(residuals)(theta, values, sd)
+        # One pass: the residuals are the primal of the forward-mode Jacobian's solves (its aux
+        # output, not batched over the tangents), not a second simulation beside it.
+        jacobian, r = jax.jacfwd(lambda t: (residuals(t, values, sd),) * 2, has_aux=True)(theta)
+        return r, jacobian
 
     return jax.jit(residuals), jax.jit(with_jacobian)
 

@@ -21,7 +21,6 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.scipy.linalg as jsl
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
@@ -89,26 +88,42 @@ RODAS5_TABLEAU = RosenbrockTableau(
 )
 
 
+def _factorise(matrix):
+    """(lu, permutation) of `matrix` (`jax.lax.linalg.lu`). The row permutation is formed here,
+    once a step: `jax.scipy.linalg.lu_solve` forms it from the pivots at every call, a loop
+    over the rows that, for the small systems of a kinetics step, cost more than the solve."""
+    lu, _, permutation = jax.lax.linalg.lu(matrix)
+    return lu, permutation
+
+
+def _lu_solve(factors, rhs):
+    """`matrix`^-1 `rhs` (a vector) from `factors` = `_factorise(matrix)`."""
+    lu, permutation = factors
+    x = rhs[permutation][:, None]
+    x = jax.lax.linalg.triangular_solve(lu, x, left_side=True, lower=True, unit_diagonal=True)
+    return jax.lax.linalg.triangular_solve(lu, x, left_side=True, lower=False)[:, 0]
+
+
 @jax.custom_jvp
 def _solve(factors, matrix, rhs):
-    """`matrix`^-1 `rhs` from `factors` = `jax.scipy.linalg.lu_factor(matrix)`.
+    """`matrix`^-1 `rhs` from `factors` = `_factorise(matrix)`.
 
     The derivative goes through `matrix`, never through the factorisation: d x = matrix^-1
     (d rhs - d matrix x), so a reverse pass gives the matrix the outer product
     -(matrix^-T x_bar) x^T. Differentiating the LU factorisation instead (JAX's rule for
     `lu`) makes a large system's reverse step slower."""
-    return jsl.lu_solve(factors, rhs)
+    return _lu_solve(factors, rhs)
 
 
 @_solve.defjvp
 def _solve_jvp(primals, tangents):
     factors, matrix, rhs = primals
     _, matrix_dot, rhs_dot = tangents
-    solution = jsl.lu_solve(factors, rhs)
+    solution = _lu_solve(factors, rhs)
     # A rejected trial step may solve for NaN; its cotangent is 0, and 0 * NaN would reach the
     # matrix (the step's Jacobian) in a reverse pass. A finite solution is used as it is.
     finite = jnp.where(jnp.isfinite(solution), solution, 0.0)
-    return solution, jsl.lu_solve(factors, rhs_dot - matrix_dot @ finite)
+    return solution, _lu_solve(factors, rhs_dot - matrix_dot @ finite)
 
 
 class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
@@ -186,7 +201,7 @@ class AbstractRosenbrock(diffrax.AbstractAdaptiveSolver):
         else:
             jacobian = self.jacobian(t0, y0, args)
         matrix = jnp.eye(y0_flat.size, dtype=dtype) / (tableau.gamma * h) - jacobian
-        factors = jsl.lu_factor(jax.lax.stop_gradient(matrix))
+        factors = _factorise(jax.lax.stop_gradient(matrix))
 
         def stage_rate(alpha, gamma_sum, y_i, combined):
             """The right-hand side of a stage's solve at t0 + `alpha` h and `y_i`, given
