@@ -1,7 +1,7 @@
 """Where the two-factor gap lies (docs/dev/gas_storage_notes.md, "The two-factor gap, against a
 dynamic program"): on family rows under the shipped two-factor model, the independent dynamic
 program on (inventory, short-term, long-term factor) (`tests/gas_factor_dp.py`) gives the
-optimal value on refined grids, and its own rule, simulated on the bench's evaluation paths and
+optimal value on each grid given, and its own rule (on the last grid given), simulated on the bench's evaluation paths and
 charged the bound's penalty, a lower bound paired with SNAPO, LSMC and the dual bound.
 
     PYTHONPATH=$PWD .venv/bin/python benchmarks/gas_factor_dp_diagnosis.py CASE PATHS [LEVELS,POINTS,NODES ...]
@@ -30,7 +30,7 @@ from finance.gas_storage._versus_lsmc import trading_nodes
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tests"))
 from gas_factor_dp import two_factor_policy_cash, two_factor_value  # noqa: E402
 
-RULE_GRID = (201, 41, 9)  # levels, points, nodes of the DP whose rule is simulated
+RULE_GRID = (201, 41, 9)  # levels, points, nodes of the DP whose rule is simulated, unless grids are given
 
 
 def main(name: str, paths: int, grids: list[tuple[int, int, int]]) -> None:
@@ -53,7 +53,7 @@ def main(name: str, paths: int, grids: list[tuple[int, int, int]]) -> None:
     fit = fit_state_lsmc(inputs, scene, grid, training, 2)
     snapo = simulate_state_policy(policy, inputs, scene, evaluation, sharpness=None,
                                   start=policy.start_logits(inputs, scene, evaluation))
-    levels, points, nodes = RULE_GRID
+    levels, points, nodes = grids[-1] if grids else RULE_GRID  # the last grid's rule
     cash, inventory = two_factor_policy_cash(case.facility, case.curve, decay, q, np.asarray(evaluation.factors),
                                              levels=levels, points=points, nodes=nodes)
     rule = Schedule(jax.numpy.asarray(cash), None, None, jax.numpy.asarray(inventory))
