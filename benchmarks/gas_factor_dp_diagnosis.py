@@ -4,7 +4,10 @@ program on (inventory, short-term, long-term factor) (`tests/gas_factor_dp.py`) 
 optimal value on each grid given, and its own rule (on the last grid given), simulated on the bench's evaluation paths and
 charged the bound's penalty, a lower bound paired with SNAPO, LSMC and the dual bound.
 
-    PYTHONPATH=$PWD .venv/bin/python benchmarks/gas_factor_dp_diagnosis.py CASE PATHS [LEVELS,POINTS,NODES ...]
+    PYTHONPATH=$PWD .venv/bin/python benchmarks/gas_factor_dp_diagnosis.py CASE PATHS[:TRAINING] [LEVELS,POINTS,NODES ...]
+
+PATHS evaluation paths (the bound on all of them) and TRAINING paths (default PATHS) that LSMC,
+the penalty and SNAPO fit and train on.
 """
 
 import pathlib
@@ -33,7 +36,7 @@ from gas_factor_dp import two_factor_policy_cash, two_factor_value  # noqa: E402
 RULE_GRID = (201, 41, 9)  # levels, points, nodes of the DP whose rule is simulated, unless grids are given
 
 
-def main(name: str, paths: int, grids: list[tuple[int, int, int]]) -> None:
+def main(name: str, paths: int, train: int, grids: list[tuple[int, int, int]]) -> None:
     model = sample_price_model("two-factor")
     case = chosen_cases(None, (name,), 0)[0]
     decay, q = np.asarray(model.decay()), np.asarray(model.step_covariance())
@@ -44,7 +47,7 @@ def main(name: str, paths: int, grids: list[tuple[int, int, int]]) -> None:
               f"{time.perf_counter() - start:.0f} s)", flush=True)
     inputs = make_inputs(case.facility, case.curve)
     key = jax.random.key(0)
-    training = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, TRAIN_KEY))
+    training = model_paths(model, inputs.forward_curve, train, jax.random.fold_in(key, TRAIN_KEY))
     evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
     scene = stochastic_scene()
     grid = inventory_grid(inputs, scene, trading_nodes(inputs, 101))
@@ -60,7 +63,7 @@ def main(name: str, paths: int, grids: list[tuple[int, int, int]]) -> None:
     policies = {"snapo": snapo, "lsmc": run_state_lsmc(fit, inputs, scene, grid, evaluation), "dp_rule": rule}
     bound = _bound(model, fit, inputs, scene, grid, training, evaluation, policies, paths, False)
     difference = np.asarray(cash) - np.asarray(snapo.value)
-    print(f"{name} ({paths:,} paths): SNAPO plain {out['snapo_out_of_sample']:,.0f}, DP rule plain {cash.mean():,.0f}, "
+    print(f"{name} ({paths:,} paths, {train:,} training): SNAPO plain {out['snapo_out_of_sample']:,.0f}, DP rule plain {cash.mean():,.0f}, "
           f"DP rule - SNAPO {difference.mean():,.0f} (paired SE {difference.std(ddof=1) / np.sqrt(paths):,.0f})")
     for method in ("snapo", "lsmc", "dp_rule"):
         print(f"  {method}: control variate {bound[f'{method}_value_control_variate']:,.0f} "
@@ -72,4 +75,5 @@ def main(name: str, paths: int, grids: list[tuple[int, int, int]]) -> None:
 
 if __name__ == "__main__":
     snapo_ode.configure()
-    main(sys.argv[1], int(sys.argv[2]), [tuple(int(x) for x in g.split(",")) for g in sys.argv[3:]])
+    counts = [int(x) for x in sys.argv[2].split(":")]
+    main(sys.argv[1], counts[0], counts[-1], [tuple(int(x) for x in g.split(",")) for g in sys.argv[3:]])
