@@ -70,3 +70,36 @@ def test_the_rule_keeps_the_facility_and_earns_the_dp_value():
     # Not vacuous: on the same grids the volatility is worth something to the DP.
     _, still, q_still = _model(1e-6, 1e-6)
     assert value > 1.001 * two_factor_value(EVERYTHING, SEASON, still, q_still, **grid)
+
+
+@pytest.mark.slow
+def test_on_a_ratcheted_facility_the_bound_stays_above_the_dp_and_its_rule():
+    """The bound (inventory relaxation, ratchets, fuel, costs, discounting) against the DP's value
+    and, path by path with the penalty, against the DP's own rule: a valid upper bound of both;
+    SNAPO and LSMC below the DP's value."""
+    from finance.gas_storage._lsmc import inventory_grid
+    from finance.gas_storage._model import Schedule, stochastic_scene
+    from finance.gas_storage._model_study import _bound, value_on_model
+    from finance.gas_storage._state_lsmc import fit_state_lsmc
+
+    model, decay, q = _model()
+    inputs = gs.make_inputs(EVERYTHING, SEASON)
+    training = model_paths(model, inputs.forward_curve, 4_000, jax.random.key(1))
+    evaluation = model_paths(model, inputs.forward_curve, 1_000, jax.random.key(2))
+    grid = dict(levels=801, points=31, nodes=7)
+    value = two_factor_value(EVERYTHING, SEASON, decay, q, **grid)
+    out = value_on_model(model, inputs, training, evaluation, nodes=101, train_steps=30, rolling_paths=50,
+                         dual_paths=1_000)
+    tolerance = 2e-3 * value  # the DP's grids
+    assert out["dual_upper_bound"] >= value - 3 * out["dual_upper_bound_se"] - tolerance
+    for method in ("lsmc", "snapo"):
+        assert out[f"{method}_value_control_variate"] <= value + 3 * out[f"{method}_value_control_variate_se"] + tolerance
+    cash, inventory = two_factor_policy_cash(EVERYTHING, SEASON, decay, q, np.asarray(evaluation.factors), **grid)
+    scene = stochastic_scene()
+    lsmc_grid = inventory_grid(inputs, scene, 101)
+    fit = fit_state_lsmc(inputs, scene, lsmc_grid, training, 2)
+    rule = Schedule(jax.numpy.asarray(cash), None, None, jax.numpy.asarray(inventory))
+    bound = _bound(model, fit, inputs, scene, lsmc_grid, training, evaluation, {"dp_rule": rule}, 1_000, False)
+    assert bound["bound_warnings"] == []  # certify: the bound's path values >= the rule's cash - penalty, path by path
+    assert bound["dp_rule_gap"] >= -3 * bound["dp_rule_gap_se"]
+    assert bound["dp_rule_value_control_variate"] == pytest.approx(value, rel=5e-3)  # not vacuous: the rule is near the optimum
