@@ -55,3 +55,20 @@ def test_cli_two_factor_writes_every_method(tmp_path, small_contract):
         assert key in result
     assert len(result["deltas"]) == 12
     assert result["dual_upper_bound"] >= result["snapo_value_control_variate"]
+    # The trained policy is saved beside the JSON and, loaded, values the run's evaluation paths as the run did.
+    import jax
+
+    from finance.gas_storage._model import stochastic_scene
+    from finance.gas_storage._price_model_file import load_price_model
+    from finance.gas_storage._price_models import model_paths
+    from finance.gas_storage._state_policy import simulate_state_policy
+    from snapo_ode import sha256
+
+    saved = out.with_suffix(".policy.eqx")
+    assert result["attachments"] == {saved.name: sha256(saved.read_bytes())}
+    policy = gs.load_storage_policy(saved)
+    inputs = gs.make_inputs(json.loads(open(small_contract[1]).read()),
+                            np.loadtxt(small_contract[3], delimiter=",", skiprows=1)[:, 1])
+    evaluation = model_paths(load_price_model(model), inputs.forward_curve, 300, jax.random.fold_in(jax.random.key(0), 13))
+    value = simulate_state_policy(policy, inputs, stochastic_scene(), evaluation, sharpness=None).value
+    assert float(np.mean(value)) == pytest.approx(result["snapo_out_of_sample"], rel=1e-10)

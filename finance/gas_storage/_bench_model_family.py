@@ -19,6 +19,10 @@ from ._price_models import model_paths
 from ._versus_lsmc import trading_nodes
 
 GAP_GOAL, SECONDS_GOAL = 0.01, 60.0
+# Training paths per evaluation path: the state LSMC's regression (which SNAPO starts on and the
+# bound's penalty regresses) needs many more paths than the valuation does (docs/dev/gas_storage_notes.md,
+# "The two-factor gap, against a dynamic program").
+TRAINING_MULTIPLE = 4
 TRAIN_KEY, VALUE_KEY = 11, 13  # folded into the seed: training (and LSMC's regression) paths, evaluation paths
 
 
@@ -56,8 +60,9 @@ def _goals(row: dict) -> str:
 def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: int | None, seed: int,
                      train_steps: int | None, nodes: int, names: tuple[str, ...] | None = None,
                      progress: bool = True) -> list[dict]:
-    """Value each case under the shipped `model_name` model: `paths` training paths (SNAPO
-    samples them, LSMC and the penalty regress on them) and `paths` fresh evaluation paths; print
+    """Value each case under the shipped `model_name` model: `TRAINING_MULTIPLE` x `paths`
+    training paths (SNAPO samples them, LSMC and the penalty regress on them) and `paths` fresh
+    evaluation paths; print
     the table and write `bench_gas_family_<model>.csv` / `.json` under `out` after every row."""
     model = sample_price_model(model_name)
     chosen = chosen_cases(cases, names, seed)
@@ -67,7 +72,8 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
     for case in chosen:
         inputs = make_inputs(case.facility, case.curve)
         key = jax.random.key(seed)
-        training = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, TRAIN_KEY))
+        training = model_paths(model, inputs.forward_curve, TRAINING_MULTIPLE * paths,
+                               jax.random.fold_in(key, TRAIN_KEY))
         evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
         result = value_on_model(model, inputs, training, evaluation, nodes=trading_nodes(inputs, nodes), seed=seed,
                                 train_steps=train_steps, progress=progress)

@@ -232,7 +232,8 @@ def register_gas(cli) -> None:
     family.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC levels at least (more where a flow needs)")
     family.add_argument("--price-model", choices=["one-factor", "two-factor", "three-factor"], help="value under "
                         "this price model's shipped example (finance/data/price_model_*.yaml): intrinsic, rolling "
-                        "intrinsic, LSMC on the model's state, SNAPO, the bound (default: the one-factor family)")
+                        "intrinsic, LSMC on the model's state, SNAPO, the bound; LSMC, the bound's penalty and SNAPO fit on 4 x "
+                        "PATHS training paths (default: the one-factor family)")
     family.set_defaults(handler=run_bench_family)
     cli.accuracy("smoothing", smoothing_accuracy)
     cli.accuracy("monte-carlo", monte_carlo_accuracy)

@@ -1,11 +1,12 @@
 """`snapo gas --price-model FILE.yaml`: every method on the desk's price model (`_model_study.py`),
-on paths it simulates or on the desk's own paths files, one JSON."""
+on paths it simulates or on the desk's own paths files: one JSON, the trained policy beside it
+(`OUT.policy.eqx`, as the one-factor `snapo gas` saves its own; `load_storage_policy` reads it)."""
 
 import sys
 
 import jax
 
-from snapo_ode import InputError, atomic_write_json
+from snapo_ode import InputError, json_bytes, publish, sha256
 
 
 def run_gas_on_model(args, inputs, settings) -> int:
@@ -15,6 +16,7 @@ def run_gas_on_model(args, inputs, settings) -> int:
     from ._path_files import paths_of_args
     from ._price_model_file import load_price_model
     from ._price_models import model_paths
+    from ._state_policy import state_policy_bytes
 
     model = load_price_model(args.price_model)
     training, evaluation = paths_of_args(args, inputs, factor_count=len(model.factor_names))
@@ -32,8 +34,10 @@ def run_gas_on_model(args, inputs, settings) -> int:
     result = value_on_model(model, inputs, training, evaluation, nodes=args.lsmc_nodes, seed=settings.seed,
                             train_steps=args.train_steps, train_paths=args.train_paths, external=external,
                             progress=settings.progress)
-    result.pop("policy")
-    written = atomic_write_json(args.json, result)
+    policy_path = args.json.with_suffix(".policy.eqx")
+    policy = state_policy_bytes(result.pop("policy"))
+    result["attachments"] = {policy_path.name: sha256(policy)}
+    written = ", ".join(map(str, publish({policy_path: policy, args.json: json_bytes(result)})))
     print(f"storage on {result['price_model']}: intrinsic {result['intrinsic_lp']:,.0f}, rolling intrinsic "
           f"{result['rolling_intrinsic'] or float('nan'):,.0f}, LSMC {result['lsmc_out_of_sample']:,.0f}, SNAPO "
           f"{result['snapo_out_of_sample']:,.0f} (SNAPO - LSMC {result['snapo_minus_lsmc']:,.0f} +- "

@@ -80,9 +80,14 @@ def storage_policy_bytes(policy) -> bytes:
 
 
 def load_storage_policy(path: str | os.PathLike):
-    """Load a policy written by `snapo gas` (`OUT.policy.eqx`), of any head."""
+    """Load a policy written by `snapo gas` (`OUT.policy.eqx`), of any head, or by `snapo gas
+    --price-model` (a `StatePolicy`)."""
     with open(path, "rb") as handle:
         header = json.loads(handle.readline())
+    if header.get("head") == "state":
+        from ._state_policy import load_state_policy
+
+        return load_state_policy(path)
     if header.get("head") != "basestock":
         return load_policy(path)
     mlp = eqx.nn.MLP(header["in_size"], header["out_size"], header["width"], header["depth"], activation=jnp.tanh,

@@ -20,6 +20,10 @@ adjoint trains the correction on the exact model's simulator (ratchets, fuel, co
 discounting), smooth, as the one-factor basestock head is trained.
 """
 
+import io
+import json
+import os
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -124,3 +128,38 @@ def simulate_state_policy(policy: StatePolicy, inputs: StorageInputs, scene: Sce
     prices = spot_prices(inputs, paths)[0]
     start = jnp.broadcast_to(inputs.initial_inventory, prices.shape[:1])
     return follow_targets(inputs, scene, low.T, high.T, prices, start, floor, sharpness)
+
+
+def _basis_header(basis: StateBasis) -> dict:
+    return {"shape": list(basis.mean.shape), "exponents": [list(e) for e in basis.exponents]}
+
+
+def _basis_like(header: dict) -> StateBasis:
+    return StateBasis(jnp.zeros(header["shape"]), jnp.zeros(header["shape"]), tuple(map(tuple, header["exponents"])))
+
+
+def state_policy_bytes(policy: StatePolicy) -> bytes:
+    """A trained `StatePolicy` as bytes (read back with `load_storage_policy`): a JSON header
+    with its shapes, then the equinox-serialised leaves (the LSMC it starts on included)."""
+    mlp, fit = policy.mlp, policy.fit
+    header = {"head": "state", "in_size": mlp.in_size, "out_size": mlp.out_size, "width": mlp.width_size,
+              "depth": mlp.depth, "harmonics": policy.harmonics, "spacing": policy.spacing,
+              "levels": int(policy.levels.shape[0]), "basis": _basis_header(policy.basis),
+              "fit_basis": _basis_header(fit.basis), "coefficients": list(fit.coefficients.shape),
+              "fit_paths": int(fit.values.shape[0])}
+    buffer = io.BytesIO()
+    eqx.tree_serialise_leaves(buffer, policy)
+    return json.dumps(header).encode() + b"\n" + buffer.getvalue()
+
+
+def load_state_policy(path: str | os.PathLike) -> StatePolicy:
+    """Load a policy written by `state_policy_bytes` (`snapo gas --price-model`'s `OUT.policy.eqx`)."""
+    with open(path, "rb") as handle:
+        header = json.loads(handle.readline())
+        mlp = eqx.nn.MLP(header["in_size"], header["out_size"], header["width"], header["depth"],
+                         activation=jnp.tanh, key=jax.random.key(0))
+        fit = StateLSMCFit(jnp.zeros(header["coefficients"]), _basis_like(header["fit_basis"]),
+                           jnp.zeros(header["fit_paths"]))
+        like = StatePolicy(mlp, _basis_like(header["basis"]), fit, jnp.zeros(header["levels"]), header["spacing"],
+                           header["harmonics"])
+        return eqx.tree_deserialise_leaves(handle, like)
