@@ -47,6 +47,7 @@ def test_bench_gas_family_writes_its_table(tmp_path):
     from snapo_ode.cli import main
 
     assert main(["bench", "gas-family", "--case", "nowhere-fast-90", "--out", str(tmp_path)]) == 2  # before any compile
+    assert main(["bench", "gas-family", "--fit-paths", "100", "--out", str(tmp_path)]) == 2  # one-factor: no such option
     assert main(["bench", "gas-family", "--case", "weekly-fuel_costs-90", "--paths", "64", "--train-steps", "2",
                  "--volatility", "high", "--no-progress", "--out", str(tmp_path)]) == 0
     table = json.loads((tmp_path / "bench_gas_family.json").read_text())
@@ -54,3 +55,17 @@ def test_bench_gas_family_writes_its_table(tmp_path):
     assert row["case"] == "weekly-fuel_costs-90" and row["volatility"] == "high"
     assert row["dual_upper_bound"] >= row["intrinsic_lp"] and row["lsmc_out_of_sample"] > row["intrinsic_lp"]
     assert (tmp_path / "bench_gas_family.csv").read_text().startswith("case,")
+
+
+def test_bench_gas_family_under_a_price_model_writes_its_table(tmp_path):
+    """The two-factor family verb end to end at a tiny size: its row, its training paths as asked."""
+    from snapo_ode.cli import main
+
+    assert main(["bench", "gas-family", "--price-model", "two-factor", "--case", "flat-fast-90", "--paths", "64",
+                 "--fit-paths", "128", "--train-steps", "2", "--no-progress", "--out", str(tmp_path)]) == 0
+    table = json.loads((tmp_path / "bench_gas_family_two_factor.json").read_text())
+    assert table["fit_paths"] == 128 and table["paths"] == 64 and table["price_model"] == "two-factor"
+    (row,) = table["rows"]
+    assert row["case"] == "flat-fast-90" and row["goals"] != "all"  # two training steps meet no goal
+    assert row["dual_upper_bound"] >= row["intrinsic_lp"] and row["rolling_intrinsic"] >= row["intrinsic_lp"]
+    assert 0 <= row["lsmc_gap"] < 1 and 0 <= row["snapo_gap"] < 1

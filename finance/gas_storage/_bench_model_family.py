@@ -59,20 +59,21 @@ def _goals(row: dict) -> str:
 
 def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: int | None, seed: int,
                      train_steps: int | None, nodes: int, names: tuple[str, ...] | None = None,
-                     progress: bool = True) -> list[dict]:
-    """Value each case under the shipped `model_name` model: `TRAINING_MULTIPLE` x `paths`
-    training paths (SNAPO samples them, LSMC and the penalty regress on them) and `paths` fresh
-    evaluation paths; print
+                     progress: bool = True, fit_paths: int | None = None) -> list[dict]:
+    """Value each case under the shipped `model_name` model: `fit_paths` training paths (default
+    `TRAINING_MULTIPLE` x `paths`; SNAPO samples them, LSMC and the penalty regress on them) and
+    `paths` fresh evaluation paths; print
     the table and write `bench_gas_family_<model>.csv` / `.json` under `out` after every row."""
     model = sample_price_model(model_name)
     chosen = chosen_cases(cases, names, seed)
+    fit_paths = TRAINING_MULTIPLE * paths if fit_paths is None else fit_paths
     rows, results = [], {}
     start = time.perf_counter()
     name = f"bench_gas_family_{model_name.replace('-', '_')}"
     for case in chosen:
         inputs = make_inputs(case.facility, case.curve)
         key = jax.random.key(seed)
-        training = model_paths(model, inputs.forward_curve, TRAINING_MULTIPLE * paths,
+        training = model_paths(model, inputs.forward_curve, fit_paths,
                                jax.random.fold_in(key, TRAIN_KEY))
         evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
         result = value_on_model(model, inputs, training, evaluation, nodes=trading_nodes(inputs, nodes), seed=seed,
@@ -85,7 +86,7 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
             "snapo_seconds")}, "warning_count": len(result["warnings"])}
         row["goals"] = _goals(row)
         rows.append(row)
-        written = record_row(out, name, rows, COLUMNS, {"results": results, "paths": paths, "seed": seed,
+        written = record_row(out, name, rows, COLUMNS, {"results": results, "paths": paths, "fit_paths": fit_paths, "seed": seed,
                                                          "nodes": nodes, "price_model": model_name})
     summarise(f"Gas-storage family under the {model_name} model ({len(rows)} rows, seed {seed}, {paths:,} fresh "
               f"evaluation paths, {time.perf_counter() - start:.0f} s)", rows, COLUMNS, written)

@@ -165,6 +165,8 @@ def run_bench_lsmc(args) -> int:
 
 
 def run_bench_family(args) -> int:
+    from snapo_ode import InputError
+
     from ._bench_family import run_family_benchmark
 
     if args.price_model not in (None, "one-factor"):
@@ -172,8 +174,11 @@ def run_bench_family(args) -> int:
 
         run_model_family(args.out, args.price_model, paths=args.paths, cases=args.cases, seed=args.seed,
                          train_steps=args.train_steps, nodes=args.lsmc_nodes, names=tuple(args.case or ()),
-                         progress=args.progress)
+                         progress=args.progress, fit_paths=args.fit_paths)
         return 0
+    if args.fit_paths is not None:
+        raise InputError(f"--fit-paths {args.fit_paths}: it sets the training paths of a multi-factor family; "
+                         "allowed only with --price-model two-factor or three-factor.")
 
     run_family_benchmark(args.out, paths=args.paths, cases=args.cases, seed=args.seed, train_steps=args.train_steps,
                          nodes=args.lsmc_nodes, volatilities=tuple(args.volatility), progress=args.progress,
@@ -232,8 +237,10 @@ def register_gas(cli) -> None:
     family.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC levels at least (more where a flow needs)")
     family.add_argument("--price-model", choices=["one-factor", "two-factor", "three-factor"], help="value under "
                         "this price model's shipped example (finance/data/price_model_*.yaml): intrinsic, rolling "
-                        "intrinsic, LSMC on the model's state, SNAPO, the bound; LSMC, the bound's penalty and SNAPO fit on 4 x "
-                        "PATHS training paths (default: the one-factor family)")
+                        "intrinsic, LSMC on the model's state, SNAPO, the bound; LSMC, the bound's penalty and SNAPO fit on "
+                        "--fit-paths training paths (default: the one-factor family)")
+    family.add_argument("--fit-paths", type=count(), help="with --price-model: the training paths LSMC and the "
+                        "bound's penalty regress on and SNAPO samples (default 4 x PATHS)")
     family.set_defaults(handler=run_bench_family)
     cli.accuracy("smoothing", smoothing_accuracy)
     cli.accuracy("monte-carlo", monte_carlo_accuracy)
