@@ -103,3 +103,37 @@ def test_on_a_ratcheted_facility_the_bound_stays_above_the_dp_and_its_rule():
     assert bound["bound_warnings"] == []  # certify: the bound's path values >= the rule's cash - penalty, path by path
     assert bound["dp_rule_gap"] >= -3 * bound["dp_rule_gap_se"]
     assert bound["dp_rule_value_control_variate"] == pytest.approx(value, rel=5e-3)  # not vacuous: the rule is near the optimum
+
+
+def test_the_bound_on_a_finer_grid_by_correction_stays_above_the_dp_and_its_rule(monkeypatch):
+    """The two-level bound (`_model_study._bound`: a control grid on all paths, a finer grid's
+    correction on the first few) on a ratcheted facility: above the DP's value, and each grid,
+    path by path with its own penalty, above the DP's rule and LSMC (`certify`,
+    `pathwise_failures`)."""
+    from finance.gas_storage import _model_study
+    from finance.gas_storage._lsmc import inventory_grid
+    from finance.gas_storage._model import Schedule, stochastic_scene
+    from finance.gas_storage._state_lsmc import fit_state_lsmc, run_state_lsmc
+
+    monkeypatch.setattr(_model_study, "CORRECTION_PATHS", 60)
+    monkeypatch.setattr(_model_study, "DUAL_WORK", 2e8)  # a small budget: grids of ~1,700 and ~8,000 levels
+    model, decay, q = _model()
+    inputs = gs.make_inputs(EVERYTHING, SEASON)
+    training = model_paths(model, inputs.forward_curve, 1_000, jax.random.key(1))
+    evaluation = model_paths(model, inputs.forward_curve, 300, jax.random.key(2))
+    grid = dict(levels=201, points=21, nodes=7)
+    value = two_factor_value(EVERYTHING, SEASON, decay, q, **grid)
+    cash, inventory = two_factor_policy_cash(EVERYTHING, SEASON, decay, q, np.asarray(evaluation.factors), **grid)
+    scene = stochastic_scene()
+    lsmc_grid = inventory_grid(inputs, scene, 51)
+    fit = fit_state_lsmc(inputs, scene, lsmc_grid, training, 2)
+    policies = {"dp_rule": Schedule(jax.numpy.asarray(cash), None, None, jax.numpy.asarray(inventory)),
+                "lsmc": run_state_lsmc(fit, inputs, scene, lsmc_grid, evaluation)}
+    out = _model_study._bound(model, fit, inputs, scene, lsmc_grid, training, evaluation, policies, 300, False)
+    # Not vacuous: the finer grid relaxes less, and its correction was taken on 60 paths.
+    assert out["dual_correction_paths"] == 60
+    assert out["dual_relaxation"] < 0.5 * out["dual_control_relaxation"]
+    assert not [w for w in out["bound_warnings"] if "not certified" in w]  # both grids, path by path
+    tolerance = 2e-3 * value  # the DP's grids
+    assert out["dual_upper_bound"] >= value - 3 * out["dual_upper_bound_se"] - tolerance
+    assert out["dp_rule_gap"] >= -3 * out["dp_rule_gap_se"]
