@@ -12,23 +12,18 @@ paired with the control on the same paths (the correction).
 import sys
 import time
 
-import jax
 import numpy as np
 
 import snapo_ode
 from finance.gas_storage._bench_family import chosen_cases
-from finance.gas_storage._bench_model_family import TRAIN_KEY, VALUE_KEY
 from finance.gas_storage._dual import dual_bound, relaxed_grid
-from finance.gas_storage._inputs import make_inputs
-from finance.gas_storage._lsmc import inventory_grid
-from finance.gas_storage._model import spot_prices, stochastic_scene
+from finance.gas_storage._model import spot_prices
 from finance.gas_storage._model_study import CORRECTION_PATHS
 from finance.gas_storage._price_model_file import sample_price_model
-from finance.gas_storage._price_models import model_paths
 from finance.gas_storage._results import standard_error
 from finance.gas_storage._state_lsmc import fit_state_lsmc
 from finance.gas_storage._state_penalty import fit_state_penalty
-from finance.gas_storage._versus_lsmc import trading_nodes
+from gas_factor_dp_diagnosis import bench_row  # the bench's paths, as the diagnosis draws them
 
 
 def _bound(penalty, inputs, scene, grid, prices, evaluation, relaxed, count):
@@ -41,12 +36,7 @@ def _bound(penalty, inputs, scene, grid, prices, evaluation, relaxed, count):
 def main(name: str, paths: int, train: int, levels: list[int]) -> None:
     model = sample_price_model("two-factor")
     case = chosen_cases(None, (name,), 0)[0]
-    inputs = make_inputs(case.facility, case.curve)
-    key = jax.random.key(0)
-    training = model_paths(model, inputs.forward_curve, train, jax.random.fold_in(key, TRAIN_KEY))
-    evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
-    scene = stochastic_scene()
-    grid = inventory_grid(inputs, scene, trading_nodes(inputs, 101))
+    inputs, training, evaluation, scene, grid = bench_row(model, case, paths, train)
     fit = fit_state_lsmc(inputs, scene, grid, training, 2)
     penalty = fit_state_penalty(fit, model, inputs, scene, grid, training)
     prices = spot_prices(inputs, evaluation)[0]
