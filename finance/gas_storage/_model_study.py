@@ -167,19 +167,19 @@ def _bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual
     else:
         fine, few = control, 0
     estimate = float(upper.mean() + correction.mean())
-    out = {"dual_upper_bound": estimate, "dual_upper_bound_se": float(np.hypot(standard_error(upper),
-                                                                               standard_error(correction))),
+    spread = float(np.hypot(standard_error(upper), standard_error(correction)))
+    out = {"dual_upper_bound": estimate, "dual_upper_bound_se": spread,
            "dual_penalty": f"state LSMC value, exact conditional means under {type(model).__name__}",
            "dual_paths": count, "dual_grid_nodes": fine.nodes, "dual_relaxation": fine.relaxation,
            "dual_control_grid_nodes": control.nodes, "dual_control_relaxation": control.relaxation,
            "dual_correction_paths": few, "dual_correction": float(correction.mean()),
            "dual_correction_se": standard_error(correction)}
     for name, (cash, lower) in lowers.items():
-        top = upper[:cash.size]
+        margin = upper[:cash.size] - lower
         out.update({f"{name}_value_control_variate": float(lower.mean()),
                     f"{name}_value_control_variate_se": standard_error(lower),
-                    f"{name}_gap": float((top - lower).mean() + correction.mean()) / estimate,
-                    f"{name}_gap_se": float(np.hypot(standard_error(top - lower), standard_error(correction))) / estimate})
+                    f"{name}_gap": float(margin.mean() + correction.mean()) / estimate,
+                    f"{name}_gap_se": float(np.hypot(standard_error(margin), standard_error(correction))) / estimate})
     # certify compares every policy path by path on the bound's paths: rolling intrinsic has fewer.
     full = {name: pair for name, pair in lowers.items() if pair[0].size == upper.size}
     warnings = certify(out, upper, full, fine.relaxation)
