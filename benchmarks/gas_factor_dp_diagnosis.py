@@ -36,6 +36,17 @@ from gas_factor_dp import two_factor_policy_cash, two_factor_value  # noqa: E402
 RULE_GRID = (201, 41, 9)  # levels, points, nodes of the DP whose rule is simulated, unless grids are given
 
 
+def bench_row(model, case, paths: int, train: int) -> tuple:
+    """The family bench's inputs, `train` training and `paths` evaluation paths (seed 0), scene
+    and LSMC grid for `case` under `model`."""
+    inputs = make_inputs(case.facility, case.curve)
+    key = jax.random.key(0)
+    training = model_paths(model, inputs.forward_curve, train, jax.random.fold_in(key, TRAIN_KEY))
+    evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
+    scene = stochastic_scene()
+    return inputs, training, evaluation, scene, inventory_grid(inputs, scene, trading_nodes(inputs, 101))
+
+
 def main(name: str, paths: int, train: int, grids: list[tuple[int, int, int]]) -> None:
     model = sample_price_model("two-factor")
     case = chosen_cases(None, (name,), 0)[0]
@@ -45,12 +56,7 @@ def main(name: str, paths: int, train: int, grids: list[tuple[int, int, int]]) -
         value = two_factor_value(case.facility, case.curve, decay, q, levels=levels, points=points, nodes=nodes)
         print(f"{name}: DP value {value:,.1f} (levels {levels}, points {points}, nodes {nodes}; "
               f"{time.perf_counter() - start:.0f} s)", flush=True)
-    inputs = make_inputs(case.facility, case.curve)
-    key = jax.random.key(0)
-    training = model_paths(model, inputs.forward_curve, train, jax.random.fold_in(key, TRAIN_KEY))
-    evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
-    scene = stochastic_scene()
-    grid = inventory_grid(inputs, scene, trading_nodes(inputs, 101))
+    inputs, training, evaluation, scene, grid = bench_row(model, case, paths, train)
     out = value_on_model(model, inputs, training, evaluation, nodes=grid.nodes, rolling_paths=20, dual_paths=paths)
     policy = out.pop("policy")
     fit = fit_state_lsmc(inputs, scene, grid, training, 2)

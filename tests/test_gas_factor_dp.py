@@ -72,6 +72,18 @@ def test_the_rule_keeps_the_facility_and_earns_the_dp_value():
     assert value > 1.001 * two_factor_value(EVERYTHING, SEASON, still, q_still, **grid)
 
 
+def _dp_case(train: int, paths: int, **grid) -> tuple:
+    """The EVERYTHING facility under `_model()`: model, inputs, `train` training and `paths`
+    evaluation paths, the DP's value on `grid` and its rule's (cash, inventory) on the latter."""
+    model, decay, q = _model()
+    inputs = gs.make_inputs(EVERYTHING, SEASON)
+    training = model_paths(model, inputs.forward_curve, train, jax.random.key(1))
+    evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.key(2))
+    value = two_factor_value(EVERYTHING, SEASON, decay, q, **grid)
+    rule = two_factor_policy_cash(EVERYTHING, SEASON, decay, q, np.asarray(evaluation.factors), **grid)
+    return model, inputs, training, evaluation, value, rule
+
+
 @pytest.mark.slow
 def test_on_a_ratcheted_facility_the_bound_stays_above_the_dp_and_its_rule():
     """The bound (inventory relaxation, ratchets, fuel, costs, discounting) against the DP's value
@@ -82,19 +94,14 @@ def test_on_a_ratcheted_facility_the_bound_stays_above_the_dp_and_its_rule():
     from finance.gas_storage._model_study import _bound, value_on_model
     from finance.gas_storage._state_lsmc import fit_state_lsmc
 
-    model, decay, q = _model()
-    inputs = gs.make_inputs(EVERYTHING, SEASON)
-    training = model_paths(model, inputs.forward_curve, 4_000, jax.random.key(1))
-    evaluation = model_paths(model, inputs.forward_curve, 1_000, jax.random.key(2))
-    grid = dict(levels=801, points=31, nodes=7)
-    value = two_factor_value(EVERYTHING, SEASON, decay, q, **grid)
+    model, inputs, training, evaluation, value, (cash, inventory) = _dp_case(4_000, 1_000, levels=801, points=31,
+                                                                              nodes=7)
     out = value_on_model(model, inputs, training, evaluation, nodes=101, train_steps=30, rolling_paths=50,
                          dual_paths=1_000)
     tolerance = 2e-3 * value  # the DP's grids
     assert out["dual_upper_bound"] >= value - 3 * out["dual_upper_bound_se"] - tolerance
     for method in ("lsmc", "snapo"):
         assert out[f"{method}_value_control_variate"] <= value + 3 * out[f"{method}_value_control_variate_se"] + tolerance
-    cash, inventory = two_factor_policy_cash(EVERYTHING, SEASON, decay, q, np.asarray(evaluation.factors), **grid)
     scene = stochastic_scene()
     lsmc_grid = inventory_grid(inputs, scene, 101)
     fit = fit_state_lsmc(inputs, scene, lsmc_grid, training, 2)
@@ -103,3 +110,32 @@ def test_on_a_ratcheted_facility_the_bound_stays_above_the_dp_and_its_rule():
     assert bound["bound_warnings"] == []  # certify: the bound's path values >= the rule's cash - penalty, path by path
     assert bound["dp_rule_gap"] >= -3 * bound["dp_rule_gap_se"]
     assert bound["dp_rule_value_control_variate"] == pytest.approx(value, rel=5e-3)  # not vacuous: the rule is near the optimum
+
+
+def test_the_bound_on_a_finer_grid_by_correction_stays_above_the_dp_and_its_rule(monkeypatch):
+    """The two-level bound (`_model_study._bound`: a control grid on all paths, a finer grid's
+    correction on the first few) on a ratcheted facility: above the DP's value, and each grid,
+    path by path with its own penalty, above the DP's rule and LSMC (`certify`,
+    `pathwise_failures`)."""
+    from finance.gas_storage import _model_study
+    from finance.gas_storage._lsmc import inventory_grid
+    from finance.gas_storage._model import Schedule, stochastic_scene
+    from finance.gas_storage._state_lsmc import fit_state_lsmc, run_state_lsmc
+
+    monkeypatch.setattr(_model_study, "CORRECTION_PATHS", 60)
+    monkeypatch.setattr(_model_study, "DUAL_WORK", 2e8)  # a small budget: grids of ~1,700 and ~8,000 levels
+    model, inputs, training, evaluation, value, (cash, inventory) = _dp_case(1_000, 300, levels=201, points=21,
+                                                                              nodes=7)
+    scene = stochastic_scene()
+    lsmc_grid = inventory_grid(inputs, scene, 51)
+    fit = fit_state_lsmc(inputs, scene, lsmc_grid, training, 2)
+    policies = {"dp_rule": Schedule(jax.numpy.asarray(cash), None, None, jax.numpy.asarray(inventory)),
+                "lsmc": run_state_lsmc(fit, inputs, scene, lsmc_grid, evaluation)}
+    out = _model_study._bound(model, fit, inputs, scene, lsmc_grid, training, evaluation, policies, 300, False)
+    # Not vacuous: the finer grid relaxes less, and its correction was taken on 60 paths.
+    assert out["dual_correction_paths"] == 60
+    assert out["dual_relaxation"] < 0.5 * out["dual_control_relaxation"]
+    assert not [w for w in out["bound_warnings"] if "not certified" in w]  # both grids, path by path
+    tolerance = 2e-3 * value  # the DP's grids
+    assert out["dual_upper_bound"] >= value - 3 * out["dual_upper_bound_se"] - tolerance
+    assert out["dp_rule_gap"] >= -3 * out["dp_rule_gap_se"]
