@@ -59,7 +59,7 @@ def rank_candidates(chain, data: LabData, result: FitResult, candidates, times: 
     for e, candidate in enumerate(candidates):
         j = jacobian[plan.measurements.experiment == e]
         after = information + j.T @ j
-        covariance = np.linalg.pinv(after)
+        covariance = updated_covariance(result.theta_covariance, j)
         _, _, reported = result.fitted.physical(result.theta, covariance, np.zeros(len(result.fitted.reactions)))
         se_after = np.sqrt(np.diag(reported))
         rows.append({"name": candidate.name, "temperature_K": candidate.temperature, "charges": candidate.charges,
@@ -67,7 +67,7 @@ def rank_candidates(chain, data: LabData, result: FitResult, candidates, times: 
                      "standard_errors_after": dict(zip(result.names, se_after.tolist())),
                      "standard_error_ratio": dict(zip(result.names, (se_after / se_now).tolist()))})
         if edge is not None:
-            coordinates_after = to_coordinates @ updated_covariance(result.theta_covariance, j) @ to_coordinates.T
+            coordinates_after = to_coordinates @ covariance @ to_coordinates.T
             expected = edge.uncertainty(coordinates_after)
             rows[-1].update(edge_uncertainty_now=edge_now, edge_uncertainty_after=expected, edge_gain=edge_now - expected)
     return sorted(rows, key=lambda row: -row[RANKINGS[rank_by]])

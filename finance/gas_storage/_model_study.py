@@ -153,13 +153,13 @@ def _bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual
     count = min(dual_paths, evaluation.shape[0])
     paths = evaluation[:count]
     prices = spot_prices(inputs, paths)[0]
+    few = min(count, CORRECTION_PATHS)
     control = relaxed_grid(inputs, scene, paths=count, work=DUAL_WORK)
-    fine = relaxed_grid(inputs, scene, paths=min(count, CORRECTION_PATHS), work=DUAL_WORK)
+    fine = relaxed_grid(inputs, scene, paths=few, work=DUAL_WORK)
     upper = np.asarray(dual_bound(penalty, inputs, scene, grid, prices, relaxed=control, price_paths=paths).values)
     lowers = _lowers(penalty, inputs, grid, prices, paths, policies, control, count)
     correction, fine_lowers = np.zeros(1), {}
     if fine.relaxation < control.relaxation:
-        few = min(count, CORRECTION_PATHS)
         fine_upper = np.asarray(dual_bound(penalty, inputs, scene, grid, prices[:few], relaxed=fine,
                                            price_paths=paths[:few]).values)
         correction = fine_upper - upper[:few]
