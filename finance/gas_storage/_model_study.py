@@ -33,7 +33,7 @@ from ._model import deterministic_scene, spot_prices, stochastic_scene
 from ._paths import PricePaths
 from ._price_models import AbstractPriceModel
 from ._results import standard_error
-from ._rolling_intrinsic import reoptimisation_days, rolling_intrinsic
+from ._rolling_intrinsic import rolling_intrinsic
 from ._state_lsmc import fit_state_lsmc, run_state_lsmc, state_lsmc_value_and_deltas
 from ._state_penalty import fit_state_penalty
 from ._state_policy import make_state_policy, simulate_state_policy
@@ -125,10 +125,9 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
         return {**out, "warnings": warnings, "policy": policy}
     # Rolling intrinsic on the first rolling_paths evaluation paths, paired with SNAPO on them.
     count = min(rolling_paths, evaluation.shape[0])
-    every = reoptimisation_days(inputs.n_days)
-    rolling_seconds, rolling = time_once(rolling_intrinsic, model, inputs, scene, grid, evaluation[:count], every)
+    rolling_seconds, rolling = time_once(rolling_intrinsic, model, inputs, scene, grid, evaluation[:count])
     out.update(rolling_intrinsic=float(np.mean(rolling.value)), rolling_intrinsic_se=standard_error(rolling.value),
-               rolling_paths=count, rolling_every_days=every, rolling_seconds=rolling_seconds)
+               rolling_paths=count, rolling_every_days=1, rolling_seconds=rolling_seconds)
     out["snapo_minus_rolling"], out["snapo_minus_rolling_se"] = _paired(np.asarray(snapo.value)[:count], rolling.value)
     policies["rolling_intrinsic"] = rolling
     out.update(_bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual_paths, external))

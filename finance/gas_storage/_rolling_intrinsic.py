@@ -4,11 +4,13 @@ conditional forward curve E_t[S_u] (u > t, exact under the price model:
 
 On a re-optimisation day t0 and every path, the intrinsic values V_u(y) of the days from u on
 from every level y (u > t0) are a dynamic program on the LSMC's inventory grid and candidates
-(`_lsmc.level_decisions`) run on the conditional curve of day t0; each day t of the block
-t0..t0+R-1 then trades to maximise today's cash at the spot plus V_{t+1}
-(`_lsmc.continuation_decision`: the exact feasible candidates, so every schedule is feasible).
-`every` = R = 1 is the daily re-optimisation; the work grows as T^2 / R x paths x levels x
-candidates, so a longer contract is re-optimised less often (`reoptimisation_days`).
+(`_lsmc.level_decisions`) run backward on the conditional curve of day t0, from the contract's
+end down to t0 + 1 only; each day t of the block t0..t0+R-1 then trades to maximise today's
+cash at the spot plus V_{t+1} (`_lsmc.continuation_decision`: the exact feasible candidates, so
+every schedule is feasible). `every` = R = 1, the default, is the practitioners' daily
+re-optimisation: the work is about T^2 / 2 x paths x levels x candidates. A larger R is cheaper
+and weaker (the continuation between re-optimisations is stale: on a fast facility, every second
+day gave 14% less than daily, docs/dev/gas_storage_notes.md), kept to measure that loss.
 """
 
 import math
@@ -25,13 +27,6 @@ from ._model import Schedule, inventory_floor, spot_prices
 from ._paths import PricePaths
 from ._price_models import AbstractPriceModel
 
-REOPTIMISATIONS = 45  # re-optimisations over a contract at most (daily up to 45 days)
-
-
-def reoptimisation_days(n_days: int) -> int:
-    """R: re-optimise every R days, so that a contract is re-optimised at most REOPTIMISATIONS times."""
-    return max(1, math.ceil(n_days / REOPTIMISATIONS))
-
 
 @eqx.filter_jit
 def rolling_intrinsic(model: AbstractPriceModel, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
@@ -39,33 +34,41 @@ def rolling_intrinsic(model: AbstractPriceModel, inputs: StorageInputs, scene: S
     """The rolling-intrinsic schedule on `paths` (which carry the model's `factors`), re-optimised
     every `every` days (static), every path."""
     n_days = inputs.n_days
-    blocks = math.ceil(n_days / every)
-    padded = blocks * every
     floor = inventory_floor(inputs, scene, None)
     prices = spot_prices(inputs, paths)[0]
-    days = jnp.arange(n_days)
+    nothing = jnp.zeros((prices.shape[0], grid.nodes))
 
     def block(inventory, start):
         curve = inputs.forward_curve * model.conditional_curve(paths.factors[:, start], start, n_days)
 
-        def back(later, step):
-            u, price, floor_tomorrow = step
-            decided, _ = level_decisions(inputs, scene, grid, price, u, floor_tomorrow, later)
-            return jnp.where(u > start, decided, later), later
+        def back(u, later):  # V_u from V_{u+1} (paths, N) on day start's curve
+            return level_decisions(inputs, scene, grid, curve[:, u], u, floor[u + 1], later)[0]
 
-        # stages[u] = V_{u+1}: the value of ending day u at each level, on day start's curve.
-        _, stages = jax.lax.scan(back, jnp.zeros((prices.shape[0], grid.nodes)), (days, curve.T, floor[1:]),
-                                 reverse=True)
+        # V_{start+every}: the days after the block, backward from the end (V_T = 0); a while loop
+        # of as many days as remain, so a re-optimisation costs the days ahead, not the contract.
+        end = jnp.minimum(start + every, n_days)
+        after = jax.lax.fori_loop(0, n_days - end, lambda i, later: back(n_days - 1 - i, later), nothing)
+        if every > 1:  # stages[j] = V_{start+j+1}: the block's own days, backward (0 beyond the end)
+            def inside(later, j):
+                u = start + j + 1
+                value = jnp.where(u < n_days, back(jnp.minimum(u, n_days - 1), later), later)
+                return value, value
+
+            stages = jnp.concatenate([jax.lax.scan(inside, after, jnp.arange(every - 1), reverse=True)[1],
+                                      after[None]])
+        else:
+            stages = after[None]
 
         def trade(held, offset):
             day = jnp.minimum(start + offset, n_days - 1)
             moved, cash = continuation_decision(inputs, scene, grid, held, prices[:, day], day, floor[day + 1],
-                                                stages[day])
+                                                stages[offset])
             live = start + offset < n_days
             return jnp.where(live, moved, held), (held, jnp.where(live, cash, 0.0))
 
         return jax.lax.scan(trade, inventory, jnp.arange(every))
 
+    padded = math.ceil(n_days / every) * every
     start = jnp.broadcast_to(inputs.initial_inventory, prices.shape[:1])
     last, (held, cash) = jax.lax.scan(block, start, jnp.arange(0, padded, every))
     held, cash = held.reshape(padded, -1)[:n_days], cash.reshape(padded, -1)[:n_days]
