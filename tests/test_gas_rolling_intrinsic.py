@@ -77,5 +77,5 @@ def test_rolling_intrinsic_equals_an_independent_loop(every):
     ratios = np.stack([np.asarray(model.conditional_curve(paths.factors[:, t], t, DAYS)) for t in range(DAYS)], 1)
     expected = _reference(curve, spot, ratios, every)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-9 * FACILITY["capacity"])
-    # Not vacuous: the paths trade (the values differ from path to path and from the intrinsic schedule's).
+    # Not vacuous: the paths trade (the values differ from path to path).
     assert np.std(expected) > 1.0

@@ -48,16 +48,14 @@ def rolling_intrinsic(model: AbstractPriceModel, inputs: StorageInputs, scene: S
         # of as many days as remain, so a re-optimisation costs the days ahead, not the contract.
         end = jnp.minimum(start + every, n_days)
         after = jax.lax.fori_loop(0, n_days - end, lambda i, later: back(n_days - 1 - i, later), nothing)
-        if every > 1:  # stages[j] = V_{start+j+1}: the block's own days, backward (0 beyond the end)
-            def inside(later, j):
-                u = start + j + 1
-                value = jnp.where(u < n_days, back(jnp.minimum(u, n_days - 1), later), later)
-                return value, value
 
-            stages = jnp.concatenate([jax.lax.scan(inside, after, jnp.arange(every - 1), reverse=True)[1],
-                                      after[None]])
-        else:
-            stages = after[None]
+        def inside(later, j):  # the block's own days, backward (0 beyond the end)
+            u = start + j + 1
+            value = jnp.where(u < n_days, back(jnp.minimum(u, n_days - 1), later), later)
+            return value, value
+
+        # stages[j] = V_{start+j+1}, j = 0..every-1 (the scan is empty for daily re-optimisation).
+        stages = jnp.concatenate([jax.lax.scan(inside, after, jnp.arange(every - 1), reverse=True)[1], after[None]])
 
         def trade(held, offset):
             day = jnp.minimum(start + offset, n_days - 1)
