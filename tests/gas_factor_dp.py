@@ -83,9 +83,11 @@ class _Solution(NamedTuple):
     inventory: np.ndarray  # (levels,) [MMBtu]
     continuations: list  # per day t, E_t V_{t+1} on (levels, G)
     variances: list  # v_t = Var(log S_t)
+    values: list | None  # per day t, V_t on (levels, G), where kept (`_solve(keep_values=True)`)
 
 
-def _solve(facility: dict, curve, decay, step_covariance, levels: int, points: int, nodes: int) -> _Solution:
+def _solve(facility: dict, curve, decay, step_covariance, levels: int, points: int, nodes: int,
+           keep_values: bool = False) -> _Solution:
     if points % 2 == 0:
         raise ValueError(f"points = {points}: odd, so that the origin X_0 = 0 is a grid point")
     curve = np.asarray(curve, float)
@@ -140,14 +142,15 @@ def _solve(facility: dict, curve, decay, step_covariance, levels: int, points: i
         return best
 
     value = np.zeros((levels, factor_sum.size))
-    continuations = [None] * days
+    continuations, values = [None] * days, [None] * days
     for day in range(days - 1, -1, -1):
         continuations[day] = (expectation @ value.T).T if day < days - 1 else value
         spot = curve[day] * np.exp(factor_sum - variances[day] / 2)
         value = bellman(day, continuations[day], spot)
+        values[day] = value if keep_values else None
     origin = (points // 2) * points + points // 2  # X_0 = 0: day 0's spot is the forward
     start = float(at(value[:, origin:origin + 1], np.array([facility["initial_inventory"]]))[0, 0])
-    return _Solution(start, axes, inventory, continuations, variances)
+    return _Solution(start, axes, inventory, continuations, variances, values if keep_values else None)
 
 
 def two_factor_value(facility: dict, curve, decay, step_covariance, *, levels: int = 201, points: int = 41,

@@ -69,3 +69,20 @@ def test_bench_gas_family_under_a_price_model_writes_its_table(tmp_path):
     assert row["case"] == "flat-fast-90" and row["goals"] != "all"  # two training steps meet no goal
     assert row["dual_upper_bound"] >= row["intrinsic_lp"] and row["rolling_intrinsic"] >= row["intrinsic_lp"]
     assert 0 <= row["lsmc_gap"] < 1 and 0 <= row["snapo_gap"] < 1
+    assert table["results"]["flat-fast-90"]["lsmc_nodes"] == 101  # a fast facility: 4 steps to a day's flow fit in 101
+
+
+def test_state_lsmc_default_grid_has_four_steps_to_a_days_flow():
+    """The price-model LSMC's default grid (`trading_nodes(inputs, 101, 4)`): the fewest levels whose
+    step is at most a quarter of a day's smallest full flow, on a slow facility (one step a day at 101)."""
+    from finance.gas_storage._bench_family import chosen_cases
+    from finance.gas_storage._inputs import make_inputs
+    from finance.gas_storage._model import largest_flows, stochastic_scene
+    from finance.gas_storage._versus_lsmc import trading_nodes
+
+    case = chosen_cases(None, ("contango-slow-180",), 0)[0]
+    inputs = make_inputs(case.facility, case.curve)
+    flow = min(largest_flows(inputs, stochastic_scene()))
+    nodes = trading_nodes(inputs, 101, 4)
+    capacity = float(inputs.capacity)
+    assert capacity / (nodes - 1) <= flow / 4 < capacity / (nodes - 2)

@@ -58,12 +58,13 @@ def _goals(row: dict) -> str:
 
 
 def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: int | None, seed: int,
-                     train_steps: int | None, nodes: int, names: tuple[str, ...] | None = None,
+                     train_steps: int | None, nodes: int | None, names: tuple[str, ...] | None = None,
                      progress: bool = True, fit_paths: int | None = None) -> list[dict]:
     """Value each case under the shipped `model_name` model: `fit_paths` training paths (default
     `TRAINING_MULTIPLE` x `paths`; SNAPO samples them, LSMC and the penalty regress on them) and
-    `paths` fresh evaluation paths; print
-    the table and write `bench_gas_family_<model>.csv` / `.json` under `out` after every row."""
+    `paths` fresh evaluation paths; LSMC on `nodes` levels or more (`trading_nodes`; None: the
+    state LSMC's default, `value_on_model`); print the table and write
+    `bench_gas_family_<model>.csv` / `.json` under `out` after every row."""
     model = sample_price_model(model_name)
     chosen = chosen_cases(cases, names, seed)
     fit_paths = TRAINING_MULTIPLE * paths if fit_paths is None else fit_paths
@@ -76,8 +77,8 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
         training = model_paths(model, inputs.forward_curve, fit_paths,
                                jax.random.fold_in(key, TRAIN_KEY))
         evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
-        result = value_on_model(model, inputs, training, evaluation, nodes=trading_nodes(inputs, nodes), seed=seed,
-                                train_steps=train_steps, progress=progress)
+        result = value_on_model(model, inputs, training, evaluation, seed=seed, train_steps=train_steps,
+                                nodes=None if nodes is None else trading_nodes(inputs, nodes), progress=progress)
         result.pop("policy")
         results[case.name] = {k: v for k, v in result.items() if k not in ("deltas", "lsmc_pathwise_deltas")}
         row = {"case": case.name, **{k: result.get(k) for k in (

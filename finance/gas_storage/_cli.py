@@ -9,6 +9,8 @@ import sys
 
 from snapo_ode.cli import count, number, positive, add_training_options
 
+ONE_FACTOR_NODES = 101  # `--lsmc-nodes` on the one-factor spot (a price model's default: `value_on_model`)
+
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     from ._cases import CASES
@@ -50,7 +52,8 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
 def add_lsmc_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lsmc", action="store_true", help="also value by least-squares Monte Carlo, perfect "
                         "foresight and the dual upper bound on the same fresh paths (needs --stochastic)")
-    parser.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC inventory grid levels")
+    parser.add_argument("--lsmc-nodes", type=count(), help=f"LSMC inventory grid levels (default {ONE_FACTOR_NODES}; "
+                        "with --price-model, 4 steps to a day's full flow, 101 at least)")
     parser.add_argument("--lsmc-degree", type=count(1, 12), default=3, help="LSMC polynomial degree in spot")
     parser.add_argument("--foresight-paths", type=count(), default=256, help="paths of the perfect-foresight LPs")
     parser.add_argument("--price-model", type=pathlib.Path, metavar="FILE.yaml", help="value on this price model "
@@ -130,9 +133,9 @@ def run_gas(args) -> int:
     if args.lsmc:
         if not settings.stochastic:
             raise InputError("--lsmc needs --stochastic (LSMC values the optionality on simulated spot paths).")
-        result = compare_with_lsmc(inputs, settings, nodes=args.lsmc_nodes, degree=args.lsmc_degree,
-                                   foresight_paths=args.foresight_paths, training_paths=training,
-                                   evaluation_paths=evaluation)
+        result = compare_with_lsmc(inputs, settings, nodes=args.lsmc_nodes or ONE_FACTOR_NODES,
+                                   degree=args.lsmc_degree, foresight_paths=args.foresight_paths,
+                                   training_paths=training, evaluation_paths=evaluation)
         return _write(result, result.study.policy, args.json)
     result = run_study(inputs, settings, training_paths=training, evaluation_paths=evaluation)
     return _write(result, result.policy, args.json)
@@ -181,8 +184,8 @@ def run_bench_family(args) -> int:
                          "allowed only with --price-model two-factor or three-factor.")
 
     run_family_benchmark(args.out, paths=args.paths, cases=args.cases, seed=args.seed, train_steps=args.train_steps,
-                         nodes=args.lsmc_nodes, volatilities=tuple(args.volatility), progress=args.progress,
-                         names=tuple(args.case or ()))
+                         nodes=args.lsmc_nodes or ONE_FACTOR_NODES, volatilities=tuple(args.volatility),
+                         progress=args.progress, names=tuple(args.case or ()))
     return 0
 
 
@@ -234,7 +237,8 @@ def register_gas(cli) -> None:
     family.add_argument("--volatility", nargs="+", choices=["low", "high"], default=["low", "high"],
                         help="B&dJ's volatilities to run (mean reversion 0.05/day)")
     family.add_argument("--train-steps", type=count(), help="SNAPO training steps (default: the head's)")
-    family.add_argument("--lsmc-nodes", type=count(), default=101, help="LSMC levels at least (more where a flow needs)")
+    family.add_argument("--lsmc-nodes", type=count(), help=f"LSMC levels at least, more where a flow needs (default "
+                        f"{ONE_FACTOR_NODES}; with --price-model, 4 steps to a day's full flow, 101 at least)")
     family.add_argument("--price-model", choices=["one-factor", "two-factor", "three-factor"], help="value under "
                         "this price model's shipped example (finance/data/price_model_*.yaml): intrinsic, rolling "
                         "intrinsic, LSMC on the model's state, SNAPO, the bound; LSMC, the bound's penalty and SNAPO fit on "

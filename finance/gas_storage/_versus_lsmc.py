@@ -44,11 +44,11 @@ def check_grid_trades(inputs: StorageInputs, nodes: int) -> None:
                              f"--lsmc-nodes {needed} or more (allowed: a step no larger than a day's flow).")
 
 
-def trading_nodes(inputs: StorageInputs, at_least: int) -> int:
-    """The fewest levels, `at_least` or more, whose step is no larger than a day's largest
-    injection (after fuel loss) or withdrawal (what `check_grid_trades` asks)."""
+def trading_nodes(inputs: StorageInputs, at_least: int, per_flow: int = 1) -> int:
+    """The fewest levels, `at_least` or more, with `per_flow` steps or more to a day's largest
+    injection (after fuel loss) and to its largest withdrawal (one: what `check_grid_trades` asks)."""
     smallest = min(largest_flows(inputs, stochastic_scene()))
-    return max(at_least, int(np.ceil(float(inputs.capacity) / smallest * (1 + 1e-12))) + 1)
+    return max(at_least, int(np.ceil(per_flow * float(inputs.capacity) / smallest * (1 + 1e-12))) + 1)
 
 
 def compare_with_lsmc(inputs: StorageInputs, settings: StudySettings, *, nodes: int = 101, degree: int = 3,
