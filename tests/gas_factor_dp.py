@@ -147,7 +147,8 @@ def _solve(facility: dict, curve, decay, step_covariance, levels: int, points: i
         continuations[day] = (expectation @ value.T).T if day < days - 1 else value
         spot = curve[day] * np.exp(factor_sum - variances[day] / 2)
         value = bellman(day, continuations[day], spot)
-        values[day] = value if keep_values else None
+        if keep_values:
+            values[day] = value
     origin = (points // 2) * points + points // 2  # X_0 = 0: day 0's spot is the forward
     start = float(at(value[:, origin:origin + 1], np.array([facility["initial_inventory"]]))[0, 0])
     return _Solution(start, axes, inventory, continuations, variances, values if keep_values else None)

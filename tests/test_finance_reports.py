@@ -106,6 +106,14 @@ def test_gas_report(gas_dir):
         check_pdf(gas_dir, doc, page)
 
 
+def test_gas_report_lsmc_on_a_grid_that_cannot_trade_is_refused_before_computing(capsys):
+    """`--lsmc` without `--lsmc-nodes` takes the one-factor default of 101 levels, on which the
+    sample facility's daily injection is less than a step: refused with the grid that trades."""
+    assert main(["report", "gas", "--out", "unused", "--stochastic", "--lsmc", "--no-progress"]) == 2
+    error = capsys.readouterr().err
+    assert "lsmc_nodes = 101" in error and "--lsmc-nodes 106" in error
+
+
 def test_gas_report_refuses_a_unit_that_is_not_one(capsys):
     assert main(["report", "gas", "--out", "unused", "--currency", "U S D"]) == 2
     assert "--currency = 'U S D' is not a unit" in capsys.readouterr().err

@@ -74,7 +74,7 @@ def test_bench_gas_family_under_a_price_model_writes_its_table(tmp_path):
 
 def test_state_lsmc_default_grid_has_four_steps_to_a_days_flow():
     """The price-model LSMC's default grid (`trading_nodes(inputs, 101, 4)`): the fewest levels whose
-    step is at most a quarter of a day's smallest full flow, on a slow facility (one step a day at 101)."""
+    step is at most a quarter of a day's smaller full flow, on a slow facility (one step to it: 109 levels)."""
     from finance.gas_storage._bench_family import chosen_cases
     from finance.gas_storage._inputs import make_inputs
     from finance.gas_storage._model import largest_flows, stochastic_scene

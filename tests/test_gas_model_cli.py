@@ -2,6 +2,7 @@
 file, before any compile; a small two-factor run writes every method's figures."""
 
 import json
+import pathlib
 
 import numpy as np
 import pytest
@@ -41,15 +42,23 @@ def test_bad_model_and_paths_files_exit_2_before_compiling(tmp_path, capsys, sma
     assert message in error[-1] and str(path) in error[-1]
 
 
-def test_cli_two_factor_writes_every_method(tmp_path, small_contract):
+def test_cli_two_factor_writes_every_method(tmp_path, small_contract, monkeypatch):
     from snapo_ode.cli import main
+    from finance.gas_storage import _model_study
     from finance.gas_storage._price_model_file import files
+    from finance.gas_storage._versus_lsmc import trading_nodes
 
     model = files("finance") / "data" / "price_model_two_factor.yaml"
     out = tmp_path / "gas.json"
+    # Without --lsmc-nodes the grid is the price model's default: LEVELS_PER_FLOW steps to a day's
+    # smaller full flow (raised here so that it exceeds the 101-level floor on this fast store).
+    monkeypatch.setattr(_model_study, "LEVELS_PER_FLOW", 30)
     assert main(["gas", *small_contract, "--price-model", str(model), "--paths", "300", "--train-steps", "5",
-                 "--train-paths", "64", "--lsmc-nodes", "11", "--json", str(out), "--no-progress"]) == 0
+                 "--train-paths", "64", "--json", str(out), "--no-progress"]) == 0
     result = json.loads(out.read_text())
+    facility = json.loads(pathlib.Path(small_contract[1]).read_text())
+    curve = np.loadtxt(small_contract[3], delimiter=",", skiprows=1)[:, 1]
+    assert result["lsmc_nodes"] == trading_nodes(gs.make_inputs(facility, curve), 101, 30) > 101
     for key in ("intrinsic_lp", "rolling_intrinsic", "lsmc_out_of_sample", "snapo_out_of_sample", "snapo_minus_lsmc",
                 "dual_upper_bound", "snapo_gap", "deltas", "lsmc_pathwise_deltas", "warnings"):
         assert key in result

@@ -13,7 +13,7 @@ from snapo_ode import Column
 
 from ._bench_family import chosen_cases, record_row, summarise
 from ._inputs import make_inputs
-from ._model_study import value_on_model
+from ._model_study import LEVELS_PER_FLOW, value_on_model
 from ._price_model_file import sample_price_model
 from ._price_models import model_paths
 from ._versus_lsmc import trading_nodes
@@ -87,8 +87,9 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
             "snapo_seconds")}, "warning_count": len(result["warnings"])}
         row["goals"] = _goals(row)
         rows.append(row)
-        written = record_row(out, name, rows, COLUMNS, {"results": results, "paths": paths, "fit_paths": fit_paths, "seed": seed,
-                                                         "nodes": nodes, "price_model": model_name})
+        meta = {"results": results, "paths": paths, "fit_paths": fit_paths, "seed": seed, "nodes": nodes,
+                "levels_per_flow": LEVELS_PER_FLOW if nodes is None else 1, "price_model": model_name}
+        written = record_row(out, name, rows, COLUMNS, meta)
     summarise(f"Gas-storage family under the {model_name} model ({len(rows)} rows, seed {seed}, {paths:,} fresh "
               f"evaluation paths, {time.perf_counter() - start:.0f} s)", rows, COLUMNS, written)
     return rows

@@ -52,8 +52,9 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
 def add_lsmc_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lsmc", action="store_true", help="also value by least-squares Monte Carlo, perfect "
                         "foresight and the dual upper bound on the same fresh paths (needs --stochastic)")
-    parser.add_argument("--lsmc-nodes", type=count(), help=f"LSMC inventory grid levels (default {ONE_FACTOR_NODES}; "
-                        "with --price-model, 4 steps to a day's full flow, 101 at least)")
+    parser.add_argument("--lsmc-nodes", type=count(), help=f"LSMC inventory grid levels (default {ONE_FACTOR_NODES}; with "
+                        "--price-model in `snapo gas`, a step of at most a quarter of a day's smaller full flow, "
+                        "101 levels at least)")
     parser.add_argument("--lsmc-degree", type=count(1, 12), default=3, help="LSMC polynomial degree in spot")
     parser.add_argument("--foresight-paths", type=count(), default=256, help="paths of the perfect-foresight LPs")
     parser.add_argument("--price-model", type=pathlib.Path, metavar="FILE.yaml", help="value on this price model "
@@ -238,7 +239,8 @@ def register_gas(cli) -> None:
                         help="B&dJ's volatilities to run (mean reversion 0.05/day)")
     family.add_argument("--train-steps", type=count(), help="SNAPO training steps (default: the head's)")
     family.add_argument("--lsmc-nodes", type=count(), help=f"LSMC levels at least, more where a flow needs (default "
-                        f"{ONE_FACTOR_NODES}; with --price-model, 4 steps to a day's full flow, 101 at least)")
+                        f"{ONE_FACTOR_NODES}; with --price-model two-factor or three-factor, a step of at most a "
+                        "quarter of a day's smaller full flow, 101 levels at least)")
     family.add_argument("--price-model", choices=["one-factor", "two-factor", "three-factor"], help="value under "
                         "this price model's shipped example (finance/data/price_model_*.yaml): intrinsic, rolling "
                         "intrinsic, LSMC on the model's state, SNAPO, the bound; LSMC, the bound's penalty and SNAPO fit on "

@@ -58,8 +58,8 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     """Every method on `training` / `evaluation` paths (module docstring); `model` None (a paths
     file without a price model): no rolling intrinsic and no bound (null, with a warning).
     `nodes`: the LSMC's inventory levels; None: LEVELS_PER_FLOW steps to a day's full injection
-    and withdrawal, 101 at least (a slow facility trades in fractions of a day's flow: one step to
-    a day's flow cost the state LSMC up to 2% of the value on the two-factor family).
+    and withdrawal, 101 at least (a slow facility trades fractions of a day's flow:
+    docs/gas_storage.md).
     Returns the JSON-ready figures, and under `"policy"` the trained `StatePolicy`."""
     check_positive_prices(inputs)
     scene = stochastic_scene()

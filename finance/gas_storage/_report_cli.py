@@ -42,7 +42,7 @@ def run_report(args) -> int:
     from snapo_ode import InputError
     from snapo_ode.cli import publish_report
 
-    from ._cli import study_from_args
+    from ._cli import ONE_FACTOR_NODES, study_from_args
     from ._report import build_gas_report, gas_report, report_provenance
 
     start, start_source = _start_date(args)
@@ -50,7 +50,8 @@ def run_report(args) -> int:
     inputs, settings = study_from_args(args)
     if args.lsmc and not settings.stochastic:
         raise InputError("--lsmc needs --stochastic (LSMC values the optionality on simulated spot paths).")
-    data = build_gas_report(inputs, settings, lsmc=args.lsmc, nodes=args.lsmc_nodes, degree=args.lsmc_degree,
+    data = build_gas_report(inputs, settings, lsmc=args.lsmc, nodes=args.lsmc_nodes or ONE_FACTOR_NODES,
+                            degree=args.lsmc_degree,
                             foresight_paths=args.foresight_paths, start=start, start_source=start_source,
                             currency=currency, energy_unit=energy_unit)
     return publish_report(args, gas_report(data, report_provenance(inputs, settings, args.command_line)))
