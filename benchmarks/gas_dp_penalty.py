@@ -31,7 +31,7 @@ from finance.gas_storage._bench_family import chosen_cases
 from finance.gas_storage._dual import DUAL_WORK, dual_bound, relaxed_grid, schedule_penalty
 from finance.gas_storage._lsmc import inventory_grid
 from finance.gas_storage._model import Schedule, spot_prices
-from finance.gas_storage._model_study import LEVELS_PER_FLOW
+from finance.gas_storage._model_study import LEVELS_PER_FLOW, NODES_AT_LEAST
 from finance.gas_storage._penalty import AbstractPenalty, _penalty_regression
 from finance.gas_storage._price_model_file import sample_price_model
 from finance.gas_storage._state_lsmc import fit_state_lsmc, run_state_lsmc, state_basis
@@ -43,7 +43,8 @@ from gas_factor_dp import _solve, two_factor_policy_cash  # on the path: gas_fac
 
 
 def catmull_rom(table, axes, x):
-    """`table` (N, G) on the square factor grid `axes` (2, points), at x (P, 2): (P, N), cubic."""
+    """`table` (N, G) on the square factor grid `axes` (2, points), at x (P, 2): (P, N), cubic: the
+    weights of `tests/gas_factor_dp._cubic_weights`, in JAX, since the bound evaluates it on traced paths."""
     weights = []
     for dim in range(2):
         axis = axes[dim]
@@ -113,7 +114,7 @@ def main(name: str, paths: int, train: int, dp_grid: tuple[int, int, int], per_f
     print(f"{name}: DP value {solution.value:,.1f} (levels {levels}, points {points}, nodes {nodes}; "
           f"{time.perf_counter() - start:.0f} s)", flush=True)
     inputs, training, evaluation, scene, _ = bench_row(model, case, paths, train)
-    grid = inventory_grid(inputs, scene, trading_nodes(inputs, 101, per_flow))
+    grid = inventory_grid(inputs, scene, trading_nodes(inputs, NODES_AT_LEAST, per_flow))
     prices = spot_prices(inputs, evaluation)[0]
     fit = fit_state_lsmc(inputs, scene, grid, training, 2)
     cash, inventory = two_factor_policy_cash(case.facility, case.curve, decay, q, np.asarray(evaluation.factors),

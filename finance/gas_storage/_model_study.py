@@ -39,7 +39,8 @@ from ._state_penalty import fit_state_penalty
 from ._state_policy import make_state_policy, simulate_state_policy
 from ._versus_lsmc import trading_nodes
 
-LEVELS_PER_FLOW = 4  # the state LSMC's default grid: steps to a day's full flow, 101 levels at least (`value_on_model`)
+LEVELS_PER_FLOW = 4  # the state LSMC's default grid: steps to a day's full flow (`value_on_model`),
+NODES_AT_LEAST = 101  # and this many levels at least
 MODEL_TRAINING = dict(train_paths=512, train_steps=300, learning_rate=3e-3, sharpness=1000.0)
 DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths (its grid's work)
 CORRECTION_PATHS = 250  # and its finer grid's correction on the first this many (`_bound`)
@@ -58,14 +59,14 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     """Every method on `training` / `evaluation` paths (module docstring); `model` None (a paths
     file without a price model): no rolling intrinsic and no bound (null, with a warning).
     `nodes`: the LSMC's inventory levels; None: LEVELS_PER_FLOW steps to a day's full injection
-    and withdrawal, 101 at least (a slow facility trades fractions of a day's flow:
+    and withdrawal, NODES_AT_LEAST levels at least (a slow facility trades fractions of a day's flow:
     docs/gas_storage.md).
     Returns the JSON-ready figures, and under `"policy"` the trained `StatePolicy`."""
     check_positive_prices(inputs)
     scene = stochastic_scene()
     settings = dict(MODEL_TRAINING, **{k: v for k, v in dict(train_steps=train_steps, train_paths=train_paths).items()
                                        if v is not None})
-    grid = inventory_grid(inputs, scene, trading_nodes(inputs, 101, LEVELS_PER_FLOW) if nodes is None else nodes)
+    grid = inventory_grid(inputs, scene, trading_nodes(inputs, NODES_AT_LEAST, LEVELS_PER_FLOW) if nodes is None else nodes)
     warnings = []
     intrinsic = solve_intrinsic(inputs, deterministic_scene())
     eval_prices = spot_prices(inputs, evaluation)[0]

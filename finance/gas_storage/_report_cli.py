@@ -51,9 +51,8 @@ def run_report(args) -> int:
     if args.lsmc and not settings.stochastic:
         raise InputError("--lsmc needs --stochastic (LSMC values the optionality on simulated spot paths).")
     data = build_gas_report(inputs, settings, lsmc=args.lsmc, nodes=args.lsmc_nodes or ONE_FACTOR_NODES,
-                            degree=args.lsmc_degree,
-                            foresight_paths=args.foresight_paths, start=start, start_source=start_source,
-                            currency=currency, energy_unit=energy_unit)
+                            degree=args.lsmc_degree, foresight_paths=args.foresight_paths, start=start,
+                            start_source=start_source, currency=currency, energy_unit=energy_unit)
     return publish_report(args, gas_report(data, report_provenance(inputs, settings, args.command_line)))
 
 
