@@ -31,11 +31,12 @@ def small_contract(tmp_path):
 ])
 def test_bad_model_and_paths_files_exit_2_before_compiling(tmp_path, capsys, small_contract, write, flags, message):
     from snapo_ode.cli import main
+    from finance.gas_storage._price_model_file import files
 
     suffix = ".yaml" if flags[-1] == "--price-model" else ".npz"
     path = tmp_path / f"input{suffix}"
     write(path)
-    flags = [str(gs._price_model_file.files("finance") / "data" / "price_model_two_factor.yaml") if f == "DATA"
+    flags = [str(files("finance") / "data" / "price_model_two_factor.yaml") if f == "DATA"
              else f for f in flags]
     assert main(["gas", *small_contract, *flags, str(path), "--json", str(tmp_path / "x.json")]) == 2
     error = capsys.readouterr().err.strip().splitlines()
