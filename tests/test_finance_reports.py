@@ -114,6 +114,14 @@ def test_gas_report_lsmc_on_a_grid_that_cannot_trade_is_refused_before_computing
     assert "lsmc_nodes = 101" in error and "--lsmc-nodes 106" in error
 
 
+@pytest.mark.parametrize("flag", ["--price-model", "--train-paths-file", "--value-paths-file"])
+def test_gas_report_refuses_a_price_model_or_paths_file_it_would_not_use(capsys, flag):
+    """The report values the built-in one-factor model: a desk's model or paths are refused, not ignored."""
+    assert main(["report", "gas", "--out", "unused", flag, "desk.file"]) == 2
+    error = capsys.readouterr().err
+    assert f"{flag} desk.file" in error and f"snapo gas {flag}" in error
+
+
 def test_gas_report_refuses_a_unit_that_is_not_one(capsys):
     assert main(["report", "gas", "--out", "unused", "--currency", "U S D"]) == 2
     assert "--currency = 'U S D' is not a unit" in capsys.readouterr().err

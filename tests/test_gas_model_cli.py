@@ -43,6 +43,15 @@ def test_bad_model_and_paths_files_exit_2_before_compiling(tmp_path, capsys, sma
     assert message in error[-1] and str(path) in error[-1]
 
 
+def test_state_lsmc_degree_beyond_the_state_basis_exits_2_before_reading_the_model(tmp_path, capsys, small_contract):
+    """The one-factor LSMC takes degrees to 12 in the spot; the state's monomials stop at 6."""
+    from snapo_ode.cli import main
+
+    assert main(["gas", *small_contract, "--price-model", str(tmp_path / "absent.yaml"), "--lsmc-degree", "7",
+                 "--json", str(tmp_path / "x.json")]) == 2
+    assert "--lsmc-degree = 7; allowed: a whole number in [1, 6]" in capsys.readouterr().err
+
+
 def test_cli_two_factor_writes_every_method(tmp_path, small_contract, monkeypatch):
     from snapo_ode.cli import main
     from finance.gas_storage import _model_study
@@ -55,11 +64,12 @@ def test_cli_two_factor_writes_every_method(tmp_path, small_contract, monkeypatc
     # smaller full flow (raised here so that it exceeds the 101-level floor on this fast store).
     monkeypatch.setattr(_model_study, "LEVELS_PER_FLOW", 30)
     assert main(["gas", *small_contract, "--price-model", str(model), "--paths", "300", "--train-steps", "5",
-                 "--train-paths", "64", "--json", str(out), "--no-progress"]) == 0
+                 "--train-paths", "64", "--lsmc-degree", "1", "--json", str(out), "--no-progress"]) == 0
     result = json.loads(out.read_text())
     facility = json.loads(pathlib.Path(small_contract[1]).read_text())
     curve = np.loadtxt(small_contract[3], delimiter=",", skiprows=1)[:, 1]
     assert result["lsmc_nodes"] == trading_nodes(gs.make_inputs(facility, curve), 101, 30) > 101
+    assert result["lsmc_degree"] == 1  # --lsmc-degree reaches the state LSMC (default 2 there, 3 in the spot)
     for key in ("intrinsic_lp", "rolling_intrinsic", "lsmc_out_of_sample", "snapo_out_of_sample", "snapo_minus_lsmc",
                 "dual_upper_bound", "snapo_gap", "deltas", "lsmc_pathwise_deltas", "warnings"):
         assert key in result

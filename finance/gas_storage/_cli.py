@@ -10,6 +10,7 @@ import sys
 from snapo_ode.cli import count, number, positive, add_training_options
 
 ONE_FACTOR_NODES = 101  # `--lsmc-nodes` on the one-factor spot (a price model's default: `value_on_model`)
+ONE_FACTOR_DEGREE = 3  # `--lsmc-degree` in the one-factor spot (a price model's default: `value_on_model`)
 
 
 def add_study_arguments(parser: argparse.ArgumentParser) -> None:
@@ -55,7 +56,9 @@ def add_lsmc_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--lsmc-nodes", type=count(), help=f"LSMC inventory grid levels (default {ONE_FACTOR_NODES}; with "
                         "--price-model in `snapo gas`, a step of at most a quarter of a day's smaller full flow, "
                         "101 levels at least)")
-    parser.add_argument("--lsmc-degree", type=count(1, 12), default=3, help="LSMC polynomial degree in spot")
+    parser.add_argument("--lsmc-degree", type=count(1, 12), help=f"LSMC polynomial degree in the spot (default "
+                        f"{ONE_FACTOR_DEGREE}); with --price-model in `snapo gas`, the total degree in the model's state "
+                        "(default 2, at most 6)")
     parser.add_argument("--foresight-paths", type=count(), default=256, help="paths of the perfect-foresight LPs")
     parser.add_argument("--price-model", type=pathlib.Path, metavar="FILE.yaml", help="value on this price model "
                         "(one-, two- or three-factor; docs/gas_storage.md, Price models): intrinsic, rolling intrinsic, "
@@ -135,7 +138,7 @@ def run_gas(args) -> int:
         if not settings.stochastic:
             raise InputError("--lsmc needs --stochastic (LSMC values the optionality on simulated spot paths).")
         result = compare_with_lsmc(inputs, settings, nodes=args.lsmc_nodes or ONE_FACTOR_NODES,
-                                   degree=args.lsmc_degree, foresight_paths=args.foresight_paths,
+                                   degree=args.lsmc_degree or ONE_FACTOR_DEGREE, foresight_paths=args.foresight_paths,
                                    training_paths=training, evaluation_paths=evaluation)
         return _write(result, result.study.policy, args.json)
     result = run_study(inputs, settings, training_paths=training, evaluation_paths=evaluation)

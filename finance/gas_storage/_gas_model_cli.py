@@ -6,18 +6,20 @@ import sys
 
 import jax
 
-from snapo_ode import InputError, json_bytes, publish, sha256
+from snapo_ode import InputError, check_count, json_bytes, publish, sha256
 
 
 def run_gas_on_model(args, inputs, settings) -> int:
     """`args`' price model and paths files on the contract `inputs`, with the study's `settings`
     (paths, seed, progress); everything is read and checked before any compile."""
-    from ._model_study import value_on_model
+    from ._model_study import STATE_DEGREE, value_on_model
     from ._path_files import paths_of_args
     from ._price_model_file import load_price_model
     from ._price_models import model_paths
     from ._state_policy import state_policy_bytes
 
+    degree = STATE_DEGREE if args.lsmc_degree is None else args.lsmc_degree
+    check_count("--lsmc-degree", degree, 1, 6)  # the state's monomials (`state_basis`)
     model = load_price_model(args.price_model)
     training, evaluation = paths_of_args(args, inputs, factor_count=len(model.factor_names))
     for file, given in ((args.train_paths_file, training), (args.value_paths_file, evaluation)):
@@ -31,7 +33,7 @@ def run_gas_on_model(args, inputs, settings) -> int:
     external = evaluation is not None
     if evaluation is None:
         evaluation = model_paths(model, inputs.forward_curve, settings.paths, jax.random.fold_in(key, 13))
-    result = value_on_model(model, inputs, training, evaluation, nodes=args.lsmc_nodes, seed=settings.seed,
+    result = value_on_model(model, inputs, training, evaluation, nodes=args.lsmc_nodes, degree=degree, seed=settings.seed,
                             train_steps=args.train_steps, train_paths=args.train_paths, external=external,
                             progress=settings.progress)
     policy_path = args.json.with_suffix(".policy.eqx")

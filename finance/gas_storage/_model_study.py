@@ -39,6 +39,7 @@ from ._state_penalty import fit_state_penalty
 from ._state_policy import make_state_policy, simulate_state_policy
 from ._versus_lsmc import trading_nodes
 
+STATE_DEGREE = 2  # the state LSMC's default total degree (`value_on_model`; `--lsmc-degree` sets it)
 LEVELS_PER_FLOW = 4  # the state LSMC's default grid: steps to a day's full flow (`value_on_model`),
 NODES_AT_LEAST = 101  # and this many levels at least
 MODEL_TRAINING = dict(train_paths=512, train_steps=300, learning_rate=3e-3, sharpness=1000.0)
@@ -53,7 +54,7 @@ def _paired(a, b) -> tuple[float, float]:
 
 
 def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, training: PricePaths,
-                   evaluation: PricePaths, *, nodes: int | None = None, degree: int = 2, seed: int = 0,
+                   evaluation: PricePaths, *, nodes: int | None = None, degree: int = STATE_DEGREE, seed: int = 0,
                    train_steps: int | None = None, train_paths: int | None = None, rolling_paths: int = ROLLING_PATHS,
                    dual_paths: int = DUAL_PATHS, external: bool = False, progress: bool = False) -> dict:
     """Every method on `training` / `evaluation` paths (module docstring); `model` None (a paths

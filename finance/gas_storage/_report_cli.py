@@ -42,16 +42,22 @@ def run_report(args) -> int:
     from snapo_ode import InputError
     from snapo_ode.cli import publish_report
 
-    from ._cli import ONE_FACTOR_NODES, study_from_args
+    from ._cli import ONE_FACTOR_DEGREE, ONE_FACTOR_NODES, study_from_args
     from ._report import build_gas_report, gas_report, report_provenance
 
+    for flag, given in (("--price-model", args.price_model), ("--train-paths-file", args.train_paths_file),
+                        ("--value-paths-file", args.value_paths_file)):
+        if given is not None:
+            raise InputError(f"{flag} {given}: the storage report is on the built-in one-factor model only; value "
+                             f"on a price model or the desk's paths with `snapo gas {flag} ...` (its JSON has every "
+                             "method, the bound and the deltas).")
     start, start_source = _start_date(args)
     currency, energy_unit = _unit(args, "currency"), _unit(args, "energy-unit")
     inputs, settings = study_from_args(args)
     if args.lsmc and not settings.stochastic:
         raise InputError("--lsmc needs --stochastic (LSMC values the optionality on simulated spot paths).")
     data = build_gas_report(inputs, settings, lsmc=args.lsmc, nodes=args.lsmc_nodes or ONE_FACTOR_NODES,
-                            degree=args.lsmc_degree, foresight_paths=args.foresight_paths, start=start,
+                            degree=args.lsmc_degree or ONE_FACTOR_DEGREE, foresight_paths=args.foresight_paths, start=start,
                             start_source=start_source, currency=currency, energy_unit=energy_unit)
     return publish_report(args, gas_report(data, report_provenance(inputs, settings, args.command_line)))
 
