@@ -68,8 +68,8 @@ class InnerPenalty(AbstractPenalty):
         def add(m, total):
             return total + self.value(rest, self.decay * x + z[:, m] @ self.chol.T)
 
-        inner = jax.lax.fori_loop(0, self.inner, add, jnp.zeros_like(self.value(rest, x_next)))
-        return self.value(rest, x_next) - inner / self.inner
+        later = self.value(rest, x_next)
+        return later - jax.lax.fori_loop(0, self.inner, add, jnp.zeros_like(later)) / self.inner
 
 
 class InnerDPPenalty(InnerPenalty):
