@@ -26,7 +26,8 @@ from finance.gas_storage._model import Schedule, stochastic_scene
 from finance.gas_storage._model_study import _bound, value_on_model
 from finance.gas_storage._price_model_file import sample_price_model
 from finance.gas_storage._price_models import model_paths
-from finance.gas_storage._state_lsmc import fit_state_lsmc, run_state_lsmc
+from finance.gas_storage._state_lsmc import run_state_lsmc
+from finance.gas_storage._state_penalty import fit_state_lsmc_and_penalty
 from finance.gas_storage._state_policy import simulate_state_policy
 from finance.gas_storage._versus_lsmc import trading_nodes
 
@@ -59,7 +60,7 @@ def main(name: str, paths: int, train: int, grids: list[tuple[int, int, int]]) -
     inputs, training, evaluation, scene, grid = bench_row(model, case, paths, train)
     out = value_on_model(model, inputs, training, evaluation, nodes=grid.nodes, rolling_paths=20, dual_paths=paths)
     policy = out.pop("policy")
-    fit = fit_state_lsmc(inputs, scene, grid, training, 2)
+    fit, penalty = fit_state_lsmc_and_penalty(model, inputs, scene, grid, training, 2)
     snapo = simulate_state_policy(policy, inputs, scene, evaluation, sharpness=None,
                                   start=policy.start_logits(inputs, scene, evaluation))
     levels, points, nodes = grids[-1] if grids else RULE_GRID  # the last grid's rule
@@ -67,7 +68,7 @@ def main(name: str, paths: int, train: int, grids: list[tuple[int, int, int]]) -
                                              levels=levels, points=points, nodes=nodes)
     rule = Schedule(jax.numpy.asarray(cash), None, None, jax.numpy.asarray(inventory))
     policies = {"snapo": snapo, "lsmc": run_state_lsmc(fit, inputs, scene, grid, evaluation), "dp_rule": rule}
-    bound = _bound(model, fit, inputs, scene, grid, training, evaluation, policies, paths, False)
+    bound = _bound(penalty, inputs, scene, grid, evaluation, policies, paths, False)
     difference = np.asarray(cash) - np.asarray(snapo.value)
     print(f"{name} ({paths:,} paths, {train:,} training): SNAPO plain {out['snapo_out_of_sample']:,.0f}, DP rule plain {cash.mean():,.0f}, "
           f"DP rule - SNAPO {difference.mean():,.0f} (paired SE {difference.std(ddof=1) / np.sqrt(paths):,.0f})")

@@ -92,7 +92,7 @@ def test_on_a_ratcheted_facility_the_bound_stays_above_the_dp_and_its_rule():
     from finance.gas_storage._lsmc import inventory_grid
     from finance.gas_storage._model import Schedule, stochastic_scene
     from finance.gas_storage._model_study import _bound, value_on_model
-    from finance.gas_storage._state_lsmc import fit_state_lsmc
+    from finance.gas_storage._state_penalty import fit_state_lsmc_and_penalty
 
     model, inputs, training, evaluation, value, (cash, inventory) = _dp_case(4_000, 1_000, levels=801, points=31,
                                                                               nodes=7)
@@ -104,9 +104,9 @@ def test_on_a_ratcheted_facility_the_bound_stays_above_the_dp_and_its_rule():
         assert out[f"{method}_value_control_variate"] <= value + 3 * out[f"{method}_value_control_variate_se"] + tolerance
     scene = stochastic_scene()
     lsmc_grid = inventory_grid(inputs, scene, 101)
-    fit = fit_state_lsmc(inputs, scene, lsmc_grid, training, 2)
+    _, penalty = fit_state_lsmc_and_penalty(model, inputs, scene, lsmc_grid, training, 2)
     rule = Schedule(jax.numpy.asarray(cash), None, None, jax.numpy.asarray(inventory))
-    bound = _bound(model, fit, inputs, scene, lsmc_grid, training, evaluation, {"dp_rule": rule}, 1_000, False)
+    bound = _bound(penalty, inputs, scene, lsmc_grid, evaluation, {"dp_rule": rule}, 1_000, False)
     assert bound["bound_warnings"] == []  # certify: the bound's path values >= the rule's cash - penalty, path by path
     assert bound["dp_rule_gap"] >= -3 * bound["dp_rule_gap_se"]
     assert bound["dp_rule_value_control_variate"] == pytest.approx(value, rel=5e-3)  # not vacuous: the rule is near the optimum
@@ -120,7 +120,8 @@ def test_the_bound_on_a_finer_grid_by_correction_stays_above_the_dp_and_its_rule
     from finance.gas_storage import _model_study
     from finance.gas_storage._lsmc import inventory_grid
     from finance.gas_storage._model import Schedule, stochastic_scene
-    from finance.gas_storage._state_lsmc import fit_state_lsmc, run_state_lsmc
+    from finance.gas_storage._state_lsmc import run_state_lsmc
+    from finance.gas_storage._state_penalty import fit_state_lsmc_and_penalty
 
     monkeypatch.setattr(_model_study, "CORRECTION_PATHS", 60)
     monkeypatch.setattr(_model_study, "DUAL_WORK", 2e8)  # a small budget: grids of ~1,700 and ~8,000 levels
@@ -128,10 +129,10 @@ def test_the_bound_on_a_finer_grid_by_correction_stays_above_the_dp_and_its_rule
                                                                               nodes=7)
     scene = stochastic_scene()
     lsmc_grid = inventory_grid(inputs, scene, 51)
-    fit = fit_state_lsmc(inputs, scene, lsmc_grid, training, 2)
+    fit, penalty = fit_state_lsmc_and_penalty(model, inputs, scene, lsmc_grid, training, 2)
     policies = {"dp_rule": Schedule(jax.numpy.asarray(cash), None, None, jax.numpy.asarray(inventory)),
                 "lsmc": run_state_lsmc(fit, inputs, scene, lsmc_grid, evaluation)}
-    out = _model_study._bound(model, fit, inputs, scene, lsmc_grid, training, evaluation, policies, 300, False)
+    out = _model_study._bound(penalty, inputs, scene, lsmc_grid, evaluation, policies, 300, False)
     # Not vacuous: the finer grid relaxes less, and its correction was taken on 60 paths.
     assert out["dual_correction_paths"] == 60
     assert out["dual_relaxation"] < 0.5 * out["dual_control_relaxation"]

@@ -99,3 +99,32 @@ def test_price_model_file_refusals(tmp_path, text, message):
     with pytest.raises(InputError, match=None) as error:
         load_price_model(path)
     assert message in str(error.value) and str(path) in str(error.value) and "\n" not in str(error.value)
+
+
+def test_penalty_fitted_in_the_lsmc_pass_equals_the_penalty_replayed_on_the_frozen_rule():
+    """`fit_state_lsmc_and_penalty` (one backward pass, as `snapo gas --price-model` runs it) gives
+    the LSMC of `fit_state_lsmc` and the penalty of `fit_state_penalty` replaying that rule on the
+    same paths; the penalty is zero on the last day and not zero before (not vacuous)."""
+    from finance.gas_storage._lsmc import inventory_grid
+    from finance.gas_storage._model import stochastic_scene
+    from finance.gas_storage._state_lsmc import fit_state_lsmc
+    from finance.gas_storage._state_penalty import fit_state_lsmc_and_penalty, fit_state_penalty
+
+    facility = dict(capacity=10_000.0, initial_inventory=3_000.0, terminal_inventory_min=3_000.0,
+                    max_injection=1_500.0, max_withdrawal=2_500.0, injection_ratchet=[[0.0, 1.0], [1.0, 0.6]],
+                    withdrawal_ratchet=[[0.0, 0.5], [1.0, 1.0]], fuel_loss=0.01, injection_cost=0.01,
+                    withdrawal_cost=0.01, rate=0.05)
+    inputs = gs.make_inputs(facility, CURVE[:30])
+    scene = stochastic_scene()
+    grid = inventory_grid(inputs, scene, 41)
+    model = sample_price_model("two-factor")
+    paths = model_paths(model, inputs.forward_curve, 600, jax.random.key(5))
+    fit, penalty = fit_state_lsmc_and_penalty(model, inputs, scene, grid, paths, 2)
+    alone = fit_state_lsmc(inputs, scene, grid, paths, 2)
+    np.testing.assert_array_equal(fit.coefficients, alone.coefficients)
+    np.testing.assert_array_equal(fit.values, alone.values)
+    replayed = fit_state_penalty(alone, model, inputs, scene, grid, paths)
+    scale = np.abs(np.asarray(replayed.coefficients)).max()
+    np.testing.assert_allclose(penalty.coefficients, replayed.coefficients, rtol=0, atol=1e-12 * scale)
+    assert np.all(np.asarray(penalty.coefficients)[-1] == 0.0)
+    assert scale > 0

@@ -29,7 +29,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, {
                        "TwoFactorModel", "model_paths"),
     "._rolling_intrinsic": ("rolling_intrinsic",),
     "._state_lsmc": ("StateBasis", "StateLSMCFit", "fit_state_lsmc", "run_state_lsmc", "state_lsmc_value_and_deltas"),
-    "._state_penalty": ("StatePenalty", "fit_state_penalty"),
+    "._state_penalty": ("StatePenalty", "fit_state_penalty", "fit_state_lsmc_and_penalty"),
     "._state_policy": ("StatePolicy", "make_state_policy", "simulate_state_policy"),
     "._penalty": ("AbstractInnovationBasis", "AbstractPenalty", "RegressionPenalty", "ShockHermite", "SpotCalls",
                   "SpotPowers", "fit_penalty"),

@@ -35,7 +35,7 @@ from ._price_models import AbstractPriceModel
 from ._results import standard_error
 from ._rolling_intrinsic import rolling_intrinsic
 from ._state_lsmc import fit_state_lsmc, run_state_lsmc, state_lsmc_value_and_deltas
-from ._state_penalty import fit_state_penalty
+from ._state_penalty import fit_state_lsmc_and_penalty
 from ._state_policy import make_state_policy, simulate_state_policy
 from ._versus_lsmc import trading_nodes
 
@@ -72,8 +72,12 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     intrinsic = solve_intrinsic(inputs, deterministic_scene())
     eval_prices = spot_prices(inputs, evaluation)[0]
     # LSMC on the training paths, valued with its deltas on the evaluation paths.
+    bounded = model is not None and evaluation.factors is not None and training.factors is not None
     start = time.perf_counter()
-    fit = fit_state_lsmc(inputs, scene, grid, training, degree)
+    if bounded:  # the bound's penalty regressed in the same backward pass (`fit_state_lsmc_and_penalty`)
+        fit, penalty = fit_state_lsmc_and_penalty(model, inputs, scene, grid, training, degree)
+    else:
+        fit, penalty = fit_state_lsmc(inputs, scene, grid, training, degree), None
     lsmc_fit_seconds = time.perf_counter() - start
     lsmc_value, lsmc_deltas = state_lsmc_value_and_deltas(fit, inputs, scene, grid, evaluation)
     lsmc = run_state_lsmc(fit, inputs, scene, grid, evaluation)
@@ -124,7 +128,7 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     }
     out["snapo_minus_lsmc"], out["snapo_minus_lsmc_se"] = _paired(snapo.value, lsmc.value)
     out["snapo_minus_intrinsic"], out["snapo_minus_intrinsic_se"] = _paired(snapo.value, policies["intrinsic"].value)
-    if model is None or evaluation.factors is None:
+    if not bounded:
         warnings.append("no price model with the paths' factors: rolling intrinsic and the dual bound need its "
                         "conditional expectations; their fields are null")
         out.update(rolling_intrinsic=None, snapo_minus_rolling=None, dual_upper_bound=None, snapo_gap=None,
@@ -137,13 +141,13 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
                rolling_paths=count, rolling_every_days=1, rolling_seconds=rolling_seconds)
     out["snapo_minus_rolling"], out["snapo_minus_rolling_se"] = _paired(np.asarray(snapo.value)[:count], rolling.value)
     policies["rolling_intrinsic"] = rolling
-    out.update(_bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual_paths, external))
+    out.update(_bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external))
     warnings += out.pop("bound_warnings")
     return {**out, "warnings": warnings, "policy": policy}
 
 
-def _bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual_paths, external) -> dict:
-    """The dual bound with the state penalty on the first `dual_paths` evaluation paths, each
+def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external) -> dict:
+    """The dual bound with the state `penalty` on the first `dual_paths` evaluation paths, each
     policy's value with the penalty as control variate and its gap, and the checks.
 
     The bound estimated is the one on the finest grid affordable on the first CORRECTION_PATHS
@@ -155,7 +159,6 @@ def _bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual
     penalty), so its standard error adds little to the control's. Each grid is checked path
     by path against every policy's cash less that grid's penalty."""
     start = time.perf_counter()
-    penalty = fit_state_penalty(fit, model, inputs, scene, grid, training)
     count = min(dual_paths, evaluation.shape[0])
     paths = evaluation[:count]
     prices = spot_prices(inputs, paths)[0]
@@ -175,7 +178,7 @@ def _bound(model, fit, inputs, scene, grid, training, evaluation, policies, dual
     estimate = float(upper.mean() + correction.mean())
     spread = float(np.hypot(standard_error(upper), standard_error(correction)))
     out = {"dual_upper_bound": estimate, "dual_upper_bound_se": spread,
-           "dual_penalty": f"state LSMC value, exact conditional means under {type(model).__name__}",
+           "dual_penalty": f"state LSMC value, exact conditional means under {type(penalty.model).__name__}",
            "dual_paths": count, "dual_grid_nodes": fine.nodes, "dual_relaxation": fine.relaxation,
            "dual_control_grid_nodes": control.nodes, "dual_control_relaxation": control.relaxation,
            "dual_correction_paths": few, "dual_correction": float(correction.mean()),

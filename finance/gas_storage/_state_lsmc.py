@@ -70,26 +70,34 @@ class StateLSMCFit(NamedTuple):
 
 
 @eqx.filter_jit
-def _fit(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices, regressors):
+def _fit(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices, regressors, also=None, also_inputs=None):
+    """The backward induction; `also(basis, estimate_later, day_inputs)`, where given, runs beside
+    it on each day t with the LSMC's own value estimate of the days after t (paths, N) and day t's
+    slice of `also_inputs` (leading axis paths, then days), and its results are returned stacked
+    on a leading day axis (the dual penalty's regressions: `_state_penalty.fit_state_lsmc_and_penalty`)."""
     floor = inventory_floor(inputs, scene, None)
 
     def back(later, today):
-        day, price, basis, floor_tomorrow = today
-        coefficients = jnp.linalg.lstsq(basis, later)[0]
-        realised, _ = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients, later)
-        return realised, coefficients
+        day, price, basis, floor_tomorrow, extra = today
+        realised_later, estimate_later = later
+        coefficients = jnp.linalg.lstsq(basis, realised_later)[0]
+        realised, estimate = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients,
+                                             realised_later)
+        return (realised, estimate), (coefficients, None if also is None else also(basis, estimate_later, extra))
 
     later = jnp.zeros((prices.shape[0], grid.nodes))
-    values, coefficients = jax.lax.scan(back, later, (jnp.arange(inputs.n_days), prices.T,
-                                                      jnp.swapaxes(regressors, 0, 1), floor[1:]), reverse=True)
-    return coefficients, start_value(inputs, grid, values)
+    extra = None if also_inputs is None else jax.tree.map(lambda a: jnp.swapaxes(a, 0, 1), also_inputs)
+    (values, _), (coefficients, side) = jax.lax.scan(
+        back, (later, later), (jnp.arange(inputs.n_days), prices.T, jnp.swapaxes(regressors, 0, 1), floor[1:], extra),
+        reverse=True)
+    return coefficients, start_value(inputs, grid, values), side
 
 
 def fit_state_lsmc(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, paths: PricePaths,
                    degree: int = 2) -> StateLSMCFit:
     """Longstaff-Schwartz backward induction on `paths`, regressing on `state_basis(paths, degree)`."""
     basis = state_basis(paths, degree)
-    coefficients, values = _fit(inputs, scene, grid, spot_prices(inputs, paths)[0], basis(paths.state()))
+    coefficients, values, _ = _fit(inputs, scene, grid, spot_prices(inputs, paths)[0], basis(paths.state()))
     return StateLSMCFit(coefficients, basis, values)
 
 

@@ -27,7 +27,7 @@ from ._model import inventory_floor, spot_prices
 from ._paths import PricePaths
 from ._penalty import AbstractInnovationBasis, AbstractPenalty, DayStep, SpotCalls, _penalty_regression
 from ._price_models import AbstractPriceModel
-from ._state_lsmc import StateBasis, StateLSMCFit, state_basis
+from ._state_lsmc import StateBasis, StateLSMCFit, _fit, state_basis
 
 DEFAULT_SPOT_BASIS = SpotCalls((0.8, 0.9, 1.0, 1.1, 1.25))
 
@@ -74,19 +74,24 @@ class StatePenalty(AbstractPenalty):
         return _features(multipliers, innovations) @ beta
 
 
+def _regression_today(basis, estimate_later, day_inputs):
+    """beta_t (J P, N): the features' coefficients in the fit of the value estimate of the days
+    after t on [state basis, features]; 0 on the last day, whose estimate and innovations are 0."""
+    multipliers, innovations = day_inputs
+    return _penalty_regression(basis, _features(multipliers, innovations), estimate_later)
+
+
 @eqx.filter_jit
 def _regressions(fit: StateLSMCFit, inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices, regressors,
                  multipliers, innovations):
-    n_days = inputs.n_days
-
-    def back(fitted_later, today):
+    def back(estimate_later, today):
         day, price, basis, multiplier, innovation, coefficients, floor_tomorrow = today
-        beta = _penalty_regression(basis, _features(multiplier, innovation), fitted_later)
-        beta = jnp.where(day < n_days - 1, beta, 0.0)
-        _, fitted = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients)
-        return fitted, beta
+        beta = _regression_today(basis, estimate_later, (multiplier, innovation))
+        _, estimate = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients)
+        return estimate, beta
 
-    per_day = (jnp.arange(n_days), prices.T, *(jnp.swapaxes(a, 0, 1) for a in (regressors, multipliers, innovations)),
+    per_day = (jnp.arange(inputs.n_days), prices.T,
+               *(jnp.swapaxes(a, 0, 1) for a in (regressors, multipliers, innovations)),
                fit.coefficients, inventory_floor(inputs, scene, None)[1:])
     _, beta = jax.lax.scan(back, jnp.zeros((prices.shape[0], grid.nodes)), per_day, reverse=True)
     return beta
@@ -96,8 +101,24 @@ def fit_state_penalty(fit: StateLSMCFit, model: AbstractPriceModel, inputs: Stor
                       grid: InventoryGrid, paths: PricePaths, *, spot_basis: AbstractInnovationBasis = DEFAULT_SPOT_BASIS,
                       multiplier_degree: int = 1) -> StatePenalty:
     """Fit beta on `paths` (with factors; the LSMC's fitting paths or others, never the
-    evaluation's), the LSMC rule `fit` frozen (module docstring)."""
+    evaluation's), the LSMC rule `fit` frozen (module docstring). On the LSMC's own fitting
+    paths `fit_state_lsmc_and_penalty` gives the same penalty without replaying the rule."""
     multipliers = state_basis(paths, multiplier_degree)
     beta = _regressions(fit, inputs, scene, grid, spot_prices(inputs, paths)[0], fit.basis(paths.state()),
                         multipliers(paths.state()), _innovations(model, spot_basis, paths, inputs.n_days))
     return StatePenalty(model, spot_basis, multipliers, beta)
+
+
+def fit_state_lsmc_and_penalty(model: AbstractPriceModel, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
+                               paths: PricePaths, degree: int = 2, *,
+                               spot_basis: AbstractInnovationBasis = DEFAULT_SPOT_BASIS,
+                               multiplier_degree: int = 1) -> tuple[StateLSMCFit, StatePenalty]:
+    """`fit_state_lsmc(inputs, scene, grid, paths, degree)` and `fit_state_penalty` of it on the
+    same `paths`, from one backward pass: each day's penalty regression takes the LSMC's value
+    estimate as the induction computes it (the separate replay cost as much as the fit itself:
+    docs/dev/gas_storage_notes.md, Measurements behind the design)."""
+    basis, multipliers = state_basis(paths, degree), state_basis(paths, multiplier_degree)
+    coefficients, values, beta = _fit(
+        inputs, scene, grid, spot_prices(inputs, paths)[0], basis(paths.state()), _regression_today,
+        (multipliers(paths.state()), _innovations(model, spot_basis, paths, inputs.n_days)))
+    return StateLSMCFit(coefficients, basis, values), StatePenalty(model, spot_basis, multipliers, beta)
