@@ -137,7 +137,7 @@ def level_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, pr
     positions, valid = candidate_inventories(inputs, scene, grid, levels, floor_tomorrow)  # (N, M)
     cash = flows_and_cash(inputs, scene, positions - levels[:, None], price[:, None, None], day, None)[2]
     score = jnp.where(valid, cash + interpolate_levels(continuation, positions, grid.spacing), -jnp.inf)
-    # Not gathered at the argmax: 2-4x the work on CPU (docs/dev/gas_storage_notes.md, Measurements behind the design).
+    # Not gathered at the argmax, the slower on CPU (docs/dev/gas_storage_notes.md, Measurements behind the design).
     decided = jnp.max(score, axis=-1)
     if later is None:
         return decided, decided

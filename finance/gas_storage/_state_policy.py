@@ -69,8 +69,7 @@ def lsmc_start_logits(fit: StateLSMCFit, inputs: StorageInputs, scene: Scene, le
         day, price, basis, coefficients, floor_t, ceiling_t = today
         positions = jnp.clip(levels, floor_t, ceiling_t)
         # Interpolated in the coefficients (B, N), linear in them: a gather of B rows, not of every path's
-        # (2.5-5x faster on a 365-day contract, same values: docs/dev/gas_storage_notes.md, Measurements
-        # behind the design).
+        # (faster, same values: docs/dev/gas_storage_notes.md, Measurements behind the design).
         value = basis @ interpolate_levels(coefficients, positions, spacing)  # (paths, N)
         cash = flows_and_cash(inputs, scene, jnp.stack([step, -step]), price[:, None], day, None)[2] / step
         low = positions[jnp.argmax(value + cash[:, :1] * positions, axis=-1)]
