@@ -127,22 +127,30 @@ def _basis(ratio, scale, degree: int):
 
 
 def level_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, price, day, floor_tomorrow,
-                    continuation, later=None):
+                    continuation, later=None, *, regressors=None):
     """One backward day at every level: each path (rows of `price`, shape (paths,)) and level
     takes the candidate maximising today's discounted cash plus `continuation` (paths, N), the
     value of tomorrow's levels it decides by, and is credited with the cash plus `later` (paths, N)
-    at that candidate (None: `continuation`). Returns `(credited, decided)`, each (paths, N): the
-    credited value and the maximised score."""
+    at that candidate (None: `continuation`). With `regressors` (paths, B), `continuation` is
+    the coefficients (B, N) of that value in them. Returns `(credited, decided)`, each (paths, N):
+    the credited value and the maximised score."""
     levels = jnp.asarray(grid.levels)
     positions, valid = candidate_inventories(inputs, scene, grid, levels, floor_tomorrow)  # (N, M)
     cash = flows_and_cash(inputs, scene, positions - levels[:, None], price[:, None, None], day, None)[2]
-    score = jnp.where(valid, cash + interpolate_levels(continuation, positions, grid.spacing), -jnp.inf)
+    if regressors is None:
+        value = interpolate_levels(continuation, positions, grid.spacing)
+    else:  # the coefficients interpolated, then multiplied: no gather per path
+        value = jnp.einsum("pb,bnm->pnm", regressors, interpolate_levels(continuation, positions, grid.spacing))
+    score = jnp.where(valid, cash + value, -jnp.inf)
     # Not gathered at the argmax, the slower on CPU (docs/dev/gas_storage_notes.md, Measurements behind the design).
     decided = jnp.max(score, axis=-1)
     if later is None:
         return decided, decided
-    best = jnp.argmax(score, axis=-1)[..., None]
-    credited = jnp.take_along_axis(cash + interpolate_levels(later, positions, grid.spacing), best, axis=-1)[..., 0]
+    best = jnp.argmax(score, axis=-1)  # (paths, N)
+    chosen = positions[jnp.arange(levels.shape[0]), best]  # (paths, N)
+    chosen_cash = jnp.take_along_axis(cash, best[..., None], axis=-1)[..., 0]
+    # `later` read at the chosen candidates only (docs/dev/gas_storage_notes.md, Measurements behind the design).
+    credited = chosen_cash + _per_row(later, chosen[..., None], grid.spacing)[..., 0]
     return credited, decided
 
 

@@ -81,8 +81,8 @@ def _fit(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, prices, regre
         day, price, basis, floor_tomorrow, extra = today
         realised_later, estimate_later = later
         coefficients = jnp.linalg.lstsq(basis, realised_later)[0]
-        realised, estimate = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients,
-                                             realised_later)
+        realised, estimate = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, coefficients,
+                                             realised_later, regressors=basis)
         return (realised, estimate), (coefficients, None if also is None else also(basis, estimate_later, extra))
 
     later = jnp.zeros((prices.shape[0], grid.nodes))

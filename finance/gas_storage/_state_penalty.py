@@ -87,7 +87,7 @@ def _regressions(fit: StateLSMCFit, inputs: StorageInputs, scene: Scene, grid: I
     def back(estimate_later, today):
         day, price, basis, multiplier, innovation, coefficients, floor_tomorrow = today
         beta = _regression_today(basis, estimate_later, (multiplier, innovation))
-        _, estimate = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients)
+        _, estimate = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, coefficients, regressors=basis)
         return estimate, beta
 
     per_day = (jnp.arange(inputs.n_days), prices.T,
