@@ -101,14 +101,10 @@ def test_price_model_file_refusals(tmp_path, text, message):
     assert message in str(error.value) and str(path) in str(error.value) and "\n" not in str(error.value)
 
 
-def test_penalty_fitted_in_the_lsmc_pass_equals_the_penalty_replayed_on_the_frozen_rule():
-    """`fit_state_lsmc_and_penalty` (one backward pass, as `snapo gas --price-model` runs it) gives
-    the LSMC of `fit_state_lsmc` and the penalty of `fit_state_penalty` replaying that rule on the
-    same paths; the penalty is zero on the last day and not zero before (not vacuous)."""
+def _ratcheted_month():
+    """A 30-day ratcheted facility with fuel and costs, the stochastic scene and a 41-level grid."""
     from finance.gas_storage._lsmc import inventory_grid
     from finance.gas_storage._model import stochastic_scene
-    from finance.gas_storage._state_lsmc import fit_state_lsmc
-    from finance.gas_storage._state_penalty import fit_state_lsmc_and_penalty, fit_state_penalty
 
     facility = dict(capacity=10_000.0, initial_inventory=3_000.0, terminal_inventory_min=3_000.0,
                     max_injection=1_500.0, max_withdrawal=2_500.0, injection_ratchet=[[0.0, 1.0], [1.0, 0.6]],
@@ -116,7 +112,17 @@ def test_penalty_fitted_in_the_lsmc_pass_equals_the_penalty_replayed_on_the_froz
                     withdrawal_cost=0.01, rate=0.05)
     inputs = gs.make_inputs(facility, CURVE[:30])
     scene = stochastic_scene()
-    grid = inventory_grid(inputs, scene, 41)
+    return inputs, scene, inventory_grid(inputs, scene, 41)
+
+
+def test_penalty_fitted_in_the_lsmc_pass_equals_the_penalty_replayed_on_the_frozen_rule():
+    """`fit_state_lsmc_and_penalty` (one backward pass, as `snapo gas --price-model` runs it) gives
+    the LSMC of `fit_state_lsmc` and the penalty of `fit_state_penalty` replaying that rule on the
+    same paths; the penalty is zero on the last day and not zero before (not vacuous)."""
+    from finance.gas_storage._state_lsmc import fit_state_lsmc
+    from finance.gas_storage._state_penalty import fit_state_lsmc_and_penalty, fit_state_penalty
+
+    inputs, scene, grid = _ratcheted_month()
     model = sample_price_model("two-factor")
     paths = model_paths(model, inputs.forward_curve, 600, jax.random.key(5))
     fit, penalty = fit_state_lsmc_and_penalty(model, inputs, scene, grid, paths, 2)
@@ -128,3 +134,30 @@ def test_penalty_fitted_in_the_lsmc_pass_equals_the_penalty_replayed_on_the_froz
     np.testing.assert_allclose(penalty.coefficients, replayed.coefficients, rtol=0, atol=1e-12 * scale)
     assert np.all(np.asarray(penalty.coefficients)[-1] == 0.0)
     assert scale > 0
+
+
+def test_a_days_decisions_from_the_coefficients_equal_those_from_the_continuation():
+    """`level_decisions(..., regressors=basis)` (the state LSMC's backward pass: the coefficients
+    interpolated, then multiplied) decides and credits as the same continuation given per path,
+    to round-off, on a ratcheted facility mid-contract; the credited value is not the decided
+    one (`later` differs from the continuation), so both outputs are checked."""
+    from finance.gas_storage._lsmc import level_decisions
+    from finance.gas_storage._model import inventory_floor, spot_prices
+    from finance.gas_storage._state_lsmc import fit_state_lsmc
+
+    inputs, scene, grid = _ratcheted_month()
+    paths = model_paths(sample_price_model("two-factor"), inputs.forward_curve, 400, jax.random.key(6))
+    fit = fit_state_lsmc(inputs, scene, grid, paths, 2)
+    day = 12
+    basis = fit.basis(paths.state())[:, day]
+    coefficients = fit.coefficients[day]
+    price = spot_prices(inputs, paths)[0][:, day]
+    floor_tomorrow = inventory_floor(inputs, scene, None)[day + 1]
+    later = basis @ coefficients + 50.0 * jax.random.normal(jax.random.key(7), (paths.shape[0], grid.nodes))
+    per_path = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, basis @ coefficients, later)
+    from_coefficients = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, coefficients, later,
+                                        regressors=basis)
+    scale = float(np.abs(np.asarray(per_path[1])).max())
+    for expected, got in zip(per_path, from_coefficients):
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * scale)
+    assert float(np.abs(np.asarray(per_path[0] - per_path[1])).max()) > 1.0
