@@ -137,10 +137,9 @@ def level_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, pr
     levels = jnp.asarray(grid.levels)
     positions, valid = candidate_inventories(inputs, scene, grid, levels, floor_tomorrow)  # (N, M)
     cash = flows_and_cash(inputs, scene, positions - levels[:, None], price[:, None, None], day, None)[2]
-    if regressors is None:
-        value = interpolate_levels(continuation, positions, grid.spacing)
-    else:  # the coefficients interpolated, then multiplied: no gather per path
-        value = jnp.einsum("pb,bnm->pnm", regressors, interpolate_levels(continuation, positions, grid.spacing))
+    value = interpolate_levels(continuation, positions, grid.spacing)
+    if regressors is not None:  # the coefficients interpolated, then multiplied: no gather per path
+        value = jnp.einsum("pb,bnm->pnm", regressors, value)
     score = jnp.where(valid, cash + value, -jnp.inf)
     # Not gathered at the argmax, the slower on CPU (docs/dev/gas_storage_notes.md, Measurements behind the design).
     decided = jnp.max(score, axis=-1)
