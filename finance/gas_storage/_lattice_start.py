@@ -26,10 +26,14 @@ from snapo_ode import Scene
 
 from ._basestock import inventory_bounds, target_logits
 from ._inputs import StorageInputs
-from ._lattice import FactorLattice, interpolate_factor, lattice_grid, solve_factor_lattice
-from ._lsmc import InventoryGrid, interpolate_levels, inventory_grid
-from ._model import factor_transition, flows_and_cash
-
+from ._lattice import (
+    FactorLattice,
+    interpolate_factor,
+    lattice_grid,
+    solve_factor_lattice,
+)
+from ._lsmc import InventoryGrid, continuation_targets, interpolate_levels, inventory_grid
+from ._model import factor_transition
 
 START_POINTS = 200  # factor levels of the lattice the start is read from (docs/gas_storage.md, Where the policy starts)
 START_WORK = 1e9  # and its inventory grid: the finest of 101, 201, 401, ... levels this work affords (`lattice_grid`)
@@ -52,20 +56,14 @@ def lattice_targets(lattice: FactorLattice, inputs: StorageInputs, scene: Scene,
     levels = jnp.asarray(grid.levels)
     floor, ceiling = (bound[1:] for bound in inventory_bounds(inputs, scene, None))
     shift = factor_transition(inputs).variance / 2  # the lattice's factor is X = x + Var(X_t) / 2
-    step = jnp.asarray(grid.spacing)
 
     def day_targets(day, forward, half_variance, continuation, floor_tomorrow, ceiling_tomorrow):
         # The levels inside [floor, ceiling] and its two ends (where no level lies inside, the ends alone).
         positions = jnp.clip(levels, floor_tomorrow, ceiling_tomorrow)
         value = interpolate_levels(interpolate_factor(lattice.factor, continuation, lattice.factor + half_variance),
                                    positions, grid.spacing)  # (G, N)
-        price = forward * jnp.exp(lattice.factor)[:, None]
-        # Cash per unit of inventory gained: injecting (negative) and withdrawing (positive, per unit lost).
-        cash = flows_and_cash(inputs, scene, jnp.stack([step, -step]), price, day, None)[2] / step
-        low = positions[jnp.argmax(value + cash[:, :1] * positions, axis=-1)]
-        above = positions >= low[:, None]
-        high = positions[jnp.argmax(jnp.where(above, value - cash[:, 1:] * positions, -jnp.inf), axis=-1)]
-        return low, high
+        return continuation_targets(inputs, scene, value, positions, forward * jnp.exp(lattice.factor), day,
+                                    grid.spacing)
 
     low, high = jax.vmap(day_targets)(jnp.arange(inputs.n_days), inputs.forward_curve, shift, lattice.continuation,
                                       floor, ceiling)

@@ -192,6 +192,22 @@ def continuation_decision(inputs: StorageInputs, scene: Scene, grid: InventoryGr
     return chosen(positions), chosen(cash)
 
 
+def continuation_targets(inputs: StorageInputs, scene: Scene, value: jax.Array, positions: jax.Array, price: jax.Array,
+                         day, spacing: float) -> tuple[jax.Array, jax.Array]:
+    """The basestock targets of a continuation value: b_L = argmax_y [C(y) - p_in y] and
+    b_U = argmax_{y >= b_L} [C(y) - p_out y] over `positions` (N,) [MMBtu] (tomorrow's candidate
+    inventories), with `value` (rows, N) the continuation C there [$] and p_in, p_out today's
+    discounted cash per unit injected and withdrawn at `price` (rows,) [$/MMBtu] (fuel and costs
+    included). Returns (b_L, b_U), each (rows,) [MMBtu]."""
+    step = jnp.asarray(spacing)
+    # Cash per unit of inventory gained: injecting (negative) and withdrawing (positive, per unit lost).
+    cash = flows_and_cash(inputs, scene, jnp.stack([step, -step]), price[:, None], day, None)[2] / step
+    low = positions[jnp.argmax(value + cash[:, :1] * positions, axis=-1)]
+    above = positions >= low[:, None]
+    high = positions[jnp.argmax(jnp.where(above, value - cash[:, 1:] * positions, -jnp.inf), axis=-1)]
+    return low, high
+
+
 def schedule_of(inputs: StorageInputs, scene: Scene, inventory: jax.Array, cash: jax.Array) -> Schedule:
     """The hard `Schedule` of inventories (paths, T+1) and daily cash (T, paths)."""
     net = jnp.diff(inventory, axis=-1)

@@ -30,6 +30,7 @@ from ._inputs import StorageInputs, check_positive_prices
 from ._lp import solve_intrinsic
 from ._lsmc import inventory_grid
 from ._model import deterministic_scene, spot_prices, stochastic_scene
+from ._model_lattice import lattice_points, solve_model_lattice
 from ._paths import PricePaths
 from ._price_models import AbstractPriceModel
 from ._results import standard_error
@@ -81,13 +82,15 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     lsmc_fit_seconds = time.perf_counter() - start
     lsmc_value, lsmc_deltas = state_lsmc_value_and_deltas(fit, inputs, scene, grid, evaluation)
     lsmc = run_state_lsmc(fit, inputs, scene, grid, evaluation)
-    # SNAPO, started on the LSMC's targets, trained on samples of the training paths.
-    policy = make_state_policy(fit, grid, training, key=jax.random.key(seed))
+    # SNAPO, started on the better on the training paths of the LSMC's and the factor lattice's targets,
+    # trained on samples of the training paths.
+    start = time.perf_counter()
+    policy, train_start, starts = _chosen_start(model if bounded else None, fit, inputs, scene, grid, training, seed)
+    out_start = dict(starts, lattice_seconds=time.perf_counter() - start)
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
 
     start = time.perf_counter()
     # The start's targets depend on the paths alone: computed once for every training and evaluation path.
-    train_start = eqx.filter_jit(policy.start_logits)(inputs, scene, training)
     eval_start = eqx.filter_jit(policy.start_logits)(inputs, scene, evaluation)
 
     def loss(policy, step_key):
@@ -124,7 +127,7 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
         "snapo_start_out_of_sample": float(np.mean(start_schedule.value)),
         "snapo_out_of_sample": float(np.mean(snapo.value)), "snapo_se": standard_error(snapo.value),
         "snapo_smooth": float(snapo_smooth), "deltas": np.asarray(snapo_deltas).tolist(),
-        "snapo_seconds": snapo_seconds, "training_settings": settings,
+        "snapo_seconds": snapo_seconds, "training_settings": settings, **out_start,
     }
     out["snapo_minus_lsmc"], out["snapo_minus_lsmc_se"] = _paired(snapo.value, lsmc.value)
     out["snapo_minus_intrinsic"], out["snapo_minus_intrinsic_se"] = _paired(snapo.value, policies["intrinsic"].value)
@@ -144,6 +147,31 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     out.update(_bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external))
     warnings += out.pop("bound_warnings")
     return {**out, "warnings": warnings, "policy": policy}
+
+
+def _chosen_start(model, fit, inputs, scene, grid, training, seed):
+    """The untrained `StatePolicy` on the LSMC `fit`'s targets or, where `model` is given and its
+    factor lattice affordable (`lattice_points`), on the lattice's: whichever values more, hard,
+    on the `training` paths (the evaluation paths are not seen). Returns the policy, its start's
+    logits on the training paths and the JSON fields of the choice."""
+    key = jax.random.key(seed)
+    start_logits = eqx.filter_jit(lambda policy: policy.start_logits(inputs, scene, training))
+    in_sample = eqx.filter_jit(lambda policy, start: jnp.mean(
+        simulate_state_policy(policy, inputs, scene, training, sharpness=None, start=start).value))
+    policy = make_state_policy(fit, grid, training, key=key)
+    logits = start_logits(policy)
+    points = None if model is None else lattice_points(model, inputs, scene, grid)
+    fields = {"snapo_start": "lsmc", "lattice_points": points, "lsmc_start_in_sample": float(in_sample(policy, logits)),
+              "lattice_start_in_sample": None, "lattice_value": None}
+    if points is None:
+        return policy, logits, fields
+    lattice = solve_model_lattice(model, inputs, scene, grid, points)
+    on_lattice = make_state_policy(fit, grid, training, key=key, lattice=lattice)
+    lattice_logits = start_logits(on_lattice)
+    fields.update(lattice_start_in_sample=float(in_sample(on_lattice, lattice_logits)), lattice_value=float(lattice.value))
+    if fields["lattice_start_in_sample"] > fields["lsmc_start_in_sample"]:
+        return on_lattice, lattice_logits, dict(fields, snapo_start="lattice")
+    return policy, logits, fields
 
 
 def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external) -> dict:

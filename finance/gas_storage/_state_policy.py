@@ -32,8 +32,9 @@ from snapo_ode import Scene
 
 from ._basestock import BAND_INIT, TARGET_OVERSHOOT, follow_targets, inventory_bounds, targets_of_logits
 from ._inputs import StorageInputs
-from ._lsmc import InventoryGrid, interpolate_levels
-from ._model import Schedule, calendar_features, flows_and_cash, spot_prices
+from ._lsmc import InventoryGrid, continuation_targets, interpolate_levels
+from ._model import Schedule, calendar_features, spot_prices
+from ._model_lattice import ModelLattice, interpolate_grid
 from ._paths import PricePaths
 from ._state_lsmc import StateBasis, StateLSMCFit, state_basis
 
@@ -63,7 +64,6 @@ def lsmc_start_logits(fit: StateLSMCFit, inputs: StorageInputs, scene: Scene, le
     floor, ceiling = (bound[1:] for bound in inventory_bounds(inputs, scene, None))
     prices = spot_prices(inputs, paths)[0]
     regressors = fit.basis(paths.state())
-    step = jnp.asarray(spacing)
 
     def day_targets(today):
         day, price, basis, coefficients, floor_t, ceiling_t = today
@@ -71,10 +71,7 @@ def lsmc_start_logits(fit: StateLSMCFit, inputs: StorageInputs, scene: Scene, le
         # Interpolated in the coefficients (B, N), linear in them: a gather of B rows, not of every path's
         # (faster, same values: docs/dev/gas_storage_notes.md, Measurements behind the design).
         value = basis @ interpolate_levels(coefficients, positions, spacing)  # (paths, N)
-        cash = flows_and_cash(inputs, scene, jnp.stack([step, -step]), price[:, None], day, None)[2] / step
-        low = positions[jnp.argmax(value + cash[:, :1] * positions, axis=-1)]
-        above = positions >= low[:, None]
-        high = positions[jnp.argmax(jnp.where(above, value - cash[:, 1:] * positions, -jnp.inf), axis=-1)]
+        low, high = continuation_targets(inputs, scene, value, positions, price, day, spacing)
         return _logits_of_targets(low, high, floor_t, ceiling_t)
 
     logits = jax.lax.map(day_targets, (jnp.arange(inputs.n_days), prices.T, jnp.swapaxes(regressors, 0, 1),
@@ -82,10 +79,27 @@ def lsmc_start_logits(fit: StateLSMCFit, inputs: StorageInputs, scene: Scene, le
     return jnp.swapaxes(logits, 0, 1)
 
 
+def lattice_start_logits(lattice: ModelLattice, inputs: StorageInputs, scene: Scene, paths: PricePaths) -> jax.Array:
+    """The start's target logits on `paths` (with the model's factors) from a `ModelLattice`'s
+    targets, interpolated multilinearly at each path's z = U^-1 X: shape (paths, T, 2), no gradient."""
+    lattice, inputs, factors = jax.lax.stop_gradient((lattice, inputs, paths.factors))
+    floor, ceiling = (bound[1:] for bound in inventory_bounds(inputs, scene, None))
+    k = lattice.unit.shape[0]
+    z = jax.scipy.linalg.solve_triangular(lattice.unit, factors.reshape(-1, k).T, lower=True, unit_diagonal=True)
+    z = jnp.swapaxes(z.T.reshape(factors.shape), 0, 1)  # (T, paths, k)
+
+    def day_logits(low, high, z_t, floor_t, ceiling_t):
+        return _logits_of_targets(interpolate_grid(lattice.axes, low, z_t), interpolate_grid(lattice.axes, high, z_t),
+                                  floor_t, ceiling_t)
+
+    return jnp.swapaxes(jax.vmap(day_logits)(lattice.low, lattice.high, z, floor, ceiling), 0, 1)
+
+
 class StatePolicy(eqx.Module):
     """**Fields:** `mlp` (calendar -> per-day coefficients, tanh); `basis`: the state polynomial
-    of the correction; `fit`, `levels` (N,) and `spacing` (static): the LSMC and its grid, which
-    the policy starts on; `harmonics` (static)."""
+    of the correction; `fit`, `levels` (N,) and `spacing` (static): the LSMC and its grid;
+    `harmonics` (static); `lattice`: the `ModelLattice` the policy starts on, or None: it starts
+    on the LSMC."""
 
     mlp: eqx.nn.MLP
     basis: StateBasis
@@ -93,9 +107,13 @@ class StatePolicy(eqx.Module):
     levels: jax.Array
     spacing: float = eqx.field(static=True)
     harmonics: int = eqx.field(static=True, default=STATE_HARMONICS)
+    lattice: ModelLattice | None = None
 
     def start_logits(self, inputs: StorageInputs, scene: Scene, paths: PricePaths) -> jax.Array:
-        """The start's logits on `paths`, shape (paths, T, 2) (`lsmc_start_logits`)."""
+        """The start's logits on `paths`, shape (paths, T, 2) (`lattice_start_logits` or
+        `lsmc_start_logits`)."""
+        if self.lattice is not None:
+            return lattice_start_logits(self.lattice, inputs, scene, paths)
         return lsmc_start_logits(self.fit, inputs, scene, self.levels, self.spacing, paths)
 
     def logits(self, inputs: StorageInputs, scene: Scene, paths: PricePaths, start=None) -> jax.Array:
@@ -109,16 +127,16 @@ class StatePolicy(eqx.Module):
 
 
 def make_state_policy(fit: StateLSMCFit, grid: InventoryGrid, paths: PricePaths, *, key, degree: int = 1,
-                      width: int = 32, depth: int = 2) -> StatePolicy:
-    """A `StatePolicy` started on the LSMC `fit`; the correction's state basis is standardised on
-    `paths` (the training paths)."""
+                      width: int = 32, depth: int = 2, lattice: ModelLattice | None = None) -> StatePolicy:
+    """A `StatePolicy` started on `lattice`'s targets, or where None on the LSMC `fit`'s; the
+    correction's state basis is standardised on `paths` (the training paths)."""
     basis = state_basis(paths, degree)
     calendar = 1 + 2 * STATE_HARMONICS
     mlp = eqx.nn.MLP(calendar, 2 * len(basis.exponents), width, depth, activation=jnp.tanh, key=key)
     last = mlp.layers[-1]
     mlp = eqx.tree_at(lambda m: (m.layers[-1].weight, m.layers[-1].bias), mlp,
                       (jnp.zeros_like(last.weight), jnp.zeros_like(last.bias)))
-    return StatePolicy(mlp, basis, fit, jnp.asarray(grid.levels), float(grid.spacing))
+    return StatePolicy(mlp, basis, fit, jnp.asarray(grid.levels), float(grid.spacing), lattice=lattice)
 
 
 def simulate_state_policy(policy: StatePolicy, inputs: StorageInputs, scene: Scene, paths: PricePaths, *,
@@ -140,15 +158,24 @@ def _basis_like(header: dict) -> StateBasis:
     return StateBasis(jnp.zeros(header["shape"]), jnp.zeros(header["shape"]), tuple(map(tuple, header["exponents"])))
 
 
+def _lattice_like(shape: list[int] | None) -> ModelLattice | None:
+    """A `ModelLattice` of zeros whose targets have `shape` (T, G, ..., G), or None."""
+    if shape is None:
+        return None
+    k, points = len(shape) - 1, shape[-1]
+    return ModelLattice(jnp.zeros((k, k)), jnp.zeros((k, points)), jnp.zeros(shape), jnp.zeros(shape), jnp.zeros(()))
+
+
 def state_policy_bytes(policy: StatePolicy) -> bytes:
     """A trained `StatePolicy` as bytes (read back with `load_storage_policy`): a JSON header
-    with its shapes, then the equinox-serialised leaves (the LSMC it starts on included)."""
+    with its shapes, then the equinox-serialised leaves (the LSMC and the lattice it starts on included)."""
     mlp, fit = policy.mlp, policy.fit
     header = {"head": "state", "in_size": mlp.in_size, "out_size": mlp.out_size, "width": mlp.width_size,
               "depth": mlp.depth, "harmonics": policy.harmonics, "spacing": policy.spacing,
               "levels": int(policy.levels.shape[0]), "basis": _basis_header(policy.basis),
               "fit_basis": _basis_header(fit.basis), "coefficients": list(fit.coefficients.shape),
-              "fit_paths": int(fit.values.shape[0])}
+              "fit_paths": int(fit.values.shape[0]),
+              "lattice": None if policy.lattice is None else list(policy.lattice.low.shape)}
     buffer = io.BytesIO()
     eqx.tree_serialise_leaves(buffer, policy)
     return json.dumps(header).encode() + b"\n" + buffer.getvalue()
@@ -163,5 +190,5 @@ def load_state_policy(path: str | os.PathLike) -> StatePolicy:
         fit = StateLSMCFit(jnp.zeros(header["coefficients"]), _basis_like(header["fit_basis"]),
                            jnp.zeros(header["fit_paths"]))
         like = StatePolicy(mlp, _basis_like(header["basis"]), fit, jnp.zeros(header["levels"]), header["spacing"],
-                           header["harmonics"])
+                           header["harmonics"], _lattice_like(header.get("lattice")))
         return eqx.tree_deserialise_leaves(handle, like)
