@@ -40,7 +40,8 @@ COLUMNS = (
     Column("SNAPO", "snapo_out_of_sample", ",.0f"), Column("SNAPO - LSMC", "snapo_minus_lsmc", ",.0f"),
     Column("paired SE", "snapo_minus_lsmc_se", ",.0f"), Column("SNAPO - rolling", "snapo_minus_rolling", _number),
     Column("dual bound", "dual_upper_bound", _number), Column("SNAPO gap", "snapo_gap", _percent),
-    Column("LSMC gap", "lsmc_gap", _percent), Column("SNAPO s", "snapo_seconds", ".1f"), Column("goals met", "goals"),
+    Column("LSMC gap", "lsmc_gap", _percent), Column("start", "snapo_start"),
+    Column("start s", "start_seconds", ".1f"), Column("SNAPO s", "snapo_seconds", ".1f"), Column("goals met", "goals"),
 )
 
 
@@ -52,7 +53,7 @@ def _goals(row: dict) -> str:
         missed.append(">= rolling")
     if row["snapo_gap"] is None or row["snapo_gap"] > GAP_GOAL:
         missed.append("gap")
-    if row["snapo_seconds"] > SECONDS_GOAL:
+    if row["snapo_seconds"] + row["start_seconds"] > SECONDS_GOAL:  # the start's choice is part of the training
         missed.append("time")
     return "all" if not missed else "missed: " + ", ".join(missed)
 
@@ -84,7 +85,7 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
         row = {"case": case.name, **{k: result.get(k) for k in (
             "intrinsic_lp", "rolling_intrinsic", "lsmc_out_of_sample", "snapo_out_of_sample", "snapo_minus_lsmc",
             "snapo_minus_lsmc_se", "snapo_minus_rolling", "dual_upper_bound", "snapo_gap", "lsmc_gap",
-            "snapo_seconds")}, "warning_count": len(result["warnings"])}
+            "snapo_start", "start_seconds", "snapo_seconds")}, "warning_count": len(result["warnings"])}
         row["goals"] = _goals(row)
         rows.append(row)
         meta = {"results": results, "paths": paths, "fit_paths": fit_paths, "seed": seed, "nodes": nodes,

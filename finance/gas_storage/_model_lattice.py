@@ -44,9 +44,9 @@ from ._model import flows_and_cash, inventory_floor
 from ._price_models import AbstractPriceModel
 
 # The most work `lattice_points` allows: days x levels x nodes G^k x (the candidates a level decides
-# among + k G / 20, the expectation's multiply-adds, about a twentieth of a candidate's cost, measured;
-# docs/dev/gas_storage_notes.md).
-MODEL_LATTICE_WORK = 8e9
+# among + k G / 8, the expectation's multiply-adds, about an eighth of a candidate's cost, measured;
+# docs/dev/gas_storage_notes.md, "The factor lattice as the start").
+MODEL_LATTICE_WORK = 1.2e10
 MODEL_LATTICE_POINTS = (9, 101)  # the fewest and the most points per factor `lattice_points` gives
 MODEL_LATTICE_WIDTH = 3.0  # each axis spans +- this many of its largest standard deviations over the horizon (tuned on the fast facilities of both families: docs/dev/gas_storage_notes.md)
 
@@ -81,7 +81,7 @@ def lattice_points(model: AbstractPriceModel, inputs: StorageInputs, scene: Scen
     low, high = MODEL_LATTICE_POINTS
 
     def cost(points):
-        return inputs.n_days * grid.nodes * points ** k * (window + k * points / 20)
+        return inputs.n_days * grid.nodes * points ** k * (window + k * points / 8)
 
     if cost(low) > work:
         return None
@@ -137,9 +137,9 @@ def _node_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, pr
     """V_t at every node (rows of `price`, shape (R,)) and level: the best candidate's cash plus
     `continuation` (R, N) there, shape (R, N); `_lsmc.level_decisions`' maximum, laid out for
     many nodes sharing one set of candidates: the cash is affine in the price (slope and
-    intercept per level and candidate) and the nodes are the last axis, so that the candidates'
-    continuation is a gather of whole rows (the faster: docs/dev/gas_storage_notes.md, Measurements
-    behind the design)."""
+    intercept per level and candidate), the nodes are the last axis and the candidates a loop
+    keeping the running maximum, so that no (levels, candidates, nodes) array is formed (the
+    faster by far: docs/dev/gas_storage_notes.md, "The factor lattice as the start")."""
     levels = jnp.asarray(grid.levels)
     positions, valid = candidate_inventories(inputs, scene, grid, levels, floor_tomorrow)  # (N, M)
     net = positions - levels[:, None]
@@ -147,11 +147,15 @@ def _node_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, pr
     per_price = flows_and_cash(inputs, scene, net, 1.0, day, None)[2] - fixed
     scaled = jnp.clip(positions / grid.spacing, 0.0, grid.nodes - 1)
     low = jnp.clip(jnp.floor(scaled).astype(int), 0, grid.nodes - 2)
-    weight = (scaled - low)[..., None]
+    weight = scaled - low
     by_level = continuation.T  # (N, R)
-    value = (1 - weight) * by_level[low] + weight * by_level[low + 1]  # (N, M, R)
-    score = jnp.where(valid[..., None], per_price[..., None] * price + fixed[..., None] + value, -jnp.inf)
-    return jnp.max(score, axis=1).T
+
+    def candidate(m, best):
+        value = (1 - weight[:, m, None]) * by_level[low[:, m]] + weight[:, m, None] * by_level[low[:, m] + 1]
+        score = per_price[:, m, None] * price + fixed[:, m, None] + value
+        return jnp.maximum(best, jnp.where(valid[:, m, None], score, -jnp.inf))
+
+    return jax.lax.fori_loop(0, positions.shape[1], candidate, jnp.full(by_level.shape, -jnp.inf)).T
 
 
 def solve_model_lattice(model: AbstractPriceModel, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,

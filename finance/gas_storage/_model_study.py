@@ -86,7 +86,7 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     # trained on samples of the training paths.
     start = time.perf_counter()
     policy, train_start, starts = _chosen_start(model if bounded else None, fit, inputs, scene, grid, training, seed)
-    out_start = dict(starts, lattice_seconds=time.perf_counter() - start)
+    out_start = dict(starts, start_seconds=time.perf_counter() - start)
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
 
     start = time.perf_counter()
