@@ -133,21 +133,35 @@ def level_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, pr
     value of tomorrow's levels it decides by, and is credited with the cash plus `later` (paths, N)
     at that candidate (None: `continuation`). With `regressors` (paths, B), `continuation` is
     the coefficients (B, N) of that value in them. Returns `(credited, decided)`, each (paths, N):
-    the credited value and the maximised score."""
+    the credited value and the maximised score.
+
+    The candidates are a loop keeping the running maximum and its first candidate (as `argmax`
+    does), levels by paths: no (paths, levels, candidates) array is formed (docs/dev/gas_storage_notes.md,
+    Measurements behind the design)."""
     levels = jnp.asarray(grid.levels)
     positions, valid = candidate_inventories(inputs, scene, grid, levels, floor_tomorrow)  # (N, M)
-    cash = flows_and_cash(inputs, scene, positions - levels[:, None], price[:, None, None], day, None)[2]
-    value = interpolate_levels(continuation, positions, grid.spacing)
-    if regressors is not None:  # the coefficients interpolated, then multiplied: no gather per path
-        value = jnp.einsum("pb,bnm->pnm", regressors, value)
-    score = jnp.where(valid, cash + value, -jnp.inf)
-    # Not gathered at the argmax, the slower on CPU (docs/dev/gas_storage_notes.md, Measurements behind the design).
-    decided = jnp.max(score, axis=-1)
+    scaled = jnp.clip(positions / grid.spacing, 0.0, grid.nodes - 1)
+    low = jnp.clip(jnp.floor(scaled).astype(int), 0, grid.nodes - 2)
+    weight = scaled - low
+    by_level = continuation.T  # (N, paths), or (N, B) of coefficients
+
+    def candidate(m, carry):
+        best, best_m = carry
+        value = (1 - weight[:, m, None]) * by_level[low[:, m]] + weight[:, m, None] * by_level[low[:, m] + 1]
+        if regressors is not None:  # the coefficients interpolated, then multiplied: no gather per path
+            value = value @ regressors.T
+        cash = flows_and_cash(inputs, scene, (positions[:, m] - levels)[:, None], price[None, :], day, None)[2]
+        score = jnp.where(valid[:, m, None], cash + value, -jnp.inf)
+        better = score > best
+        return jnp.where(better, score, best), jnp.where(better, m, best_m)
+
+    start = (jnp.full((levels.shape[0], price.shape[0]), -jnp.inf), jnp.zeros((levels.shape[0], price.shape[0]), int))
+    best, best_m = jax.lax.fori_loop(0, positions.shape[1], candidate, start)
+    decided = best.T
     if later is None:
         return decided, decided
-    best = jnp.argmax(score, axis=-1)  # (paths, N)
-    chosen = positions[jnp.arange(levels.shape[0]), best]  # (paths, N)
-    chosen_cash = jnp.take_along_axis(cash, best[..., None], axis=-1)[..., 0]
+    chosen = jnp.take_along_axis(positions, best_m, axis=1).T  # (paths, N)
+    chosen_cash = flows_and_cash(inputs, scene, chosen - levels, price[:, None], day, None)[2]
     # `later` read at the chosen candidates only (docs/dev/gas_storage_notes.md, Measurements behind the design).
     credited = chosen_cash + _per_row(later, chosen[..., None], grid.spacing)[..., 0]
     return credited, decided
