@@ -47,7 +47,8 @@ def test_bench_gas_family_writes_its_table(tmp_path):
     from snapo_ode.cli import main
 
     assert main(["bench", "gas-family", "--case", "nowhere-fast-90", "--out", str(tmp_path)]) == 2  # before any compile
-    assert main(["bench", "gas-family", "--fit-paths", "100", "--out", str(tmp_path)]) == 2  # one-factor: no such option
+    for option in ("--fit-paths", "--rolling-paths"):  # one-factor: no such option
+        assert main(["bench", "gas-family", option, "100", "--out", str(tmp_path)]) == 2
     assert main(["bench", "gas-family", "--case", "weekly-fuel_costs-90", "--paths", "64", "--train-steps", "2",
                  "--volatility", "high", "--no-progress", "--out", str(tmp_path)]) == 0
     table = json.loads((tmp_path / "bench_gas_family.json").read_text())
@@ -58,18 +59,22 @@ def test_bench_gas_family_writes_its_table(tmp_path):
 
 
 def test_bench_gas_family_under_a_price_model_writes_its_table(tmp_path):
-    """The two-factor family verb end to end at a tiny size: its row, its training paths as asked."""
+    """The two-factor family verb end to end at a tiny size: its row, its training and rolling
+    intrinsic's paths as asked, its start chosen and timed."""
     from snapo_ode.cli import main
 
     assert main(["bench", "gas-family", "--price-model", "two-factor", "--case", "flat-fast-90", "--paths", "64",
-                 "--fit-paths", "128", "--train-steps", "2", "--no-progress", "--out", str(tmp_path)]) == 0
+                 "--fit-paths", "128", "--rolling-paths", "16", "--train-steps", "2", "--no-progress", "--out",
+                 str(tmp_path)]) == 0
     table = json.loads((tmp_path / "bench_gas_family_two_factor.json").read_text())
     assert table["fit_paths"] == 128 and table["paths"] == 64 and table["price_model"] == "two-factor"
+    assert table["results"]["flat-fast-90"]["rolling_paths"] == 16
     (row,) = table["rows"]
     assert row["case"] == "flat-fast-90" and row["goals"] != "all"  # two training steps meet no goal
     assert row["dual_upper_bound"] >= row["intrinsic_lp"] and row["rolling_intrinsic"] >= row["intrinsic_lp"]
     assert 0 <= row["lsmc_gap"] < 1 and 0 <= row["snapo_gap"] < 1
     assert table["results"]["flat-fast-90"]["lsmc_nodes"] == 101  # a fast facility: 4 steps to a day's flow fit in 101
+    assert row["snapo_start"] in ("lattice", "lsmc") and row["start_seconds"] > 0
 
 
 def test_state_lsmc_default_grid_has_four_steps_to_a_days_flow():

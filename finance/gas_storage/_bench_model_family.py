@@ -13,7 +13,7 @@ from snapo_ode import Column
 
 from ._bench_family import chosen_cases, record_row, summarise
 from ._inputs import make_inputs
-from ._model_study import LEVELS_PER_FLOW, value_on_model
+from ._model_study import LEVELS_PER_FLOW, ROLLING_PATHS, value_on_model
 from ._price_model_file import sample_price_model
 from ._price_models import model_paths
 from ._versus_lsmc import trading_nodes
@@ -60,10 +60,12 @@ def _goals(row: dict) -> str:
 
 def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: int | None, seed: int,
                      train_steps: int | None, nodes: int | None, names: tuple[str, ...] | None = None,
-                     progress: bool = True, fit_paths: int | None = None) -> list[dict]:
+                     progress: bool = True, fit_paths: int | None = None,
+                     rolling_paths: int | None = None) -> list[dict]:
     """Value each case under the shipped `model_name` model: `fit_paths` training paths (default
     `TRAINING_MULTIPLE` x `paths`; SNAPO samples them, LSMC and the penalty regress on them) and
-    `paths` fresh evaluation paths; LSMC on `nodes` levels or more (`trading_nodes`; None: the
+    `paths` fresh evaluation paths (daily rolling intrinsic on the first `rolling_paths`, None:
+    `ROLLING_PATHS`); LSMC on `nodes` levels or more (`trading_nodes`; None: the
     state LSMC's default, `value_on_model`); print the table and write
     `bench_gas_family_<model>.csv` / `.json` under `out` after every row."""
     model = sample_price_model(model_name)
@@ -79,7 +81,8 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
                                jax.random.fold_in(key, TRAIN_KEY))
         evaluation = model_paths(model, inputs.forward_curve, paths, jax.random.fold_in(key, VALUE_KEY))
         result = value_on_model(model, inputs, training, evaluation, seed=seed, train_steps=train_steps,
-                                nodes=None if nodes is None else trading_nodes(inputs, nodes), progress=progress)
+                                nodes=None if nodes is None else trading_nodes(inputs, nodes), progress=progress,
+                                rolling_paths=ROLLING_PATHS if rolling_paths is None else rolling_paths)
         result.pop("policy")
         results[case.name] = {k: v for k, v in result.items() if k not in ("deltas", "lsmc_pathwise_deltas")}
         row = {"case": case.name, **{k: result.get(k) for k in (

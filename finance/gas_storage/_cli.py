@@ -181,11 +181,12 @@ def run_bench_family(args) -> int:
 
         run_model_family(args.out, args.price_model, paths=args.paths, cases=args.cases, seed=args.seed,
                          train_steps=args.train_steps, nodes=args.lsmc_nodes, names=tuple(args.case or ()),
-                         progress=args.progress, fit_paths=args.fit_paths)
+                         progress=args.progress, fit_paths=args.fit_paths, rolling_paths=args.rolling_paths)
         return 0
-    if args.fit_paths is not None:
-        raise InputError(f"--fit-paths {args.fit_paths}: it sets the training paths of a multi-factor family; "
-                         "allowed only with --price-model two-factor or three-factor.")
+    for flag, value in (("--fit-paths", args.fit_paths), ("--rolling-paths", args.rolling_paths)):
+        if value is not None:
+            raise InputError(f"{flag} {value}: it sets the paths of a multi-factor family; allowed only with "
+                             "--price-model two-factor or three-factor.")
 
     run_family_benchmark(args.out, paths=args.paths, cases=args.cases, seed=args.seed, train_steps=args.train_steps,
                          nodes=args.lsmc_nodes or ONE_FACTOR_NODES, volatilities=tuple(args.volatility),
@@ -250,6 +251,9 @@ def register_gas(cli) -> None:
                         "--fit-paths training paths (default: the one-factor family)")
     family.add_argument("--fit-paths", type=count(), help="with --price-model: the training paths LSMC and the "
                         "bound's penalty regress on and SNAPO samples (default 4 x PATHS)")
+    family.add_argument("--rolling-paths", type=count(), help="with --price-model: daily rolling intrinsic on the "
+                        "first this many evaluation paths, paired with SNAPO on them (default 500; its work grows as "
+                        "days^2)")
     family.set_defaults(handler=run_bench_family)
     cli.accuracy("smoothing", smoothing_accuracy)
     cli.accuracy("monte-carlo", monte_carlo_accuracy)
