@@ -42,7 +42,8 @@ def run_gas_on_model(args, inputs, settings) -> int:
     written = ", ".join(map(str, publish({policy_path: policy, args.json: json_bytes(result)})))
     print(f"storage on {result['price_model']}: intrinsic {result['intrinsic_lp']:,.0f}, rolling intrinsic "
           f"{result['rolling_intrinsic'] or float('nan'):,.0f}, LSMC {result['lsmc_out_of_sample']:,.0f}, SNAPO "
-          f"{result['snapo_out_of_sample']:,.0f} (SNAPO - LSMC {result['snapo_minus_lsmc']:,.0f} +- "
+          f"{result['snapo_out_of_sample']:,.0f} (start: {result['snapo_start']}; SNAPO - LSMC "
+          f"{result['snapo_minus_lsmc']:,.0f} +- "
           f"{result['snapo_minus_lsmc_se']:,.0f}), dual bound {result['dual_upper_bound'] or float('nan'):,.0f}")
     print(f"  written: {written}")
     for warning in result["warnings"]:

@@ -39,8 +39,8 @@ from snapo_ode import Scene, check_count, check_range
 from ._basestock import inventory_bounds
 from ._inputs import StorageInputs
 from ._lattice import _calls, _kinks
-from ._lsmc import InventoryGrid, candidate_inventories, continuation_targets, interpolate_levels, start_value
-from ._model import flows_and_cash, inventory_floor
+from ._lsmc import InventoryGrid, continuation_targets, interpolate_levels, level_decisions, start_value
+from ._model import inventory_floor
 from ._price_models import AbstractPriceModel
 
 # The most work `lattice_points` allows: days x levels x nodes G^k x (the candidates a level decides
@@ -48,7 +48,9 @@ from ._price_models import AbstractPriceModel
 # docs/dev/gas_storage_notes.md, "The factor lattice as the start").
 MODEL_LATTICE_WORK = 1.2e10
 MODEL_LATTICE_POINTS = (9, 101)  # the fewest and the most points per factor `lattice_points` gives
-MODEL_LATTICE_WIDTH = 3.0  # each axis spans +- this many of its largest standard deviations over the horizon (tuned on the fast facilities of both families: docs/dev/gas_storage_notes.md)
+# Each axis spans +- this many of its largest standard deviations over the horizon (chosen on the
+# fast facilities of both families: docs/dev/gas_storage_notes.md, "The factor lattice as the start").
+MODEL_LATTICE_WIDTH = 3.0
 
 
 class ModelLattice(NamedTuple):
@@ -132,32 +134,6 @@ def interpolate_grid(axes: jax.Array, table: jax.Array, z: jax.Array) -> jax.Arr
     return out
 
 
-def _node_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, price: jax.Array, day,
-                    floor_tomorrow, continuation: jax.Array) -> jax.Array:
-    """V_t at every node (rows of `price`, shape (R,)) and level: the best candidate's cash plus
-    `continuation` (R, N) there, shape (R, N); `_lsmc.level_decisions`' maximum, laid out for
-    many nodes sharing one set of candidates: the cash is affine in the price (slope and
-    intercept per level and candidate), the nodes are the last axis and the candidates a loop
-    keeping the running maximum, so that no (levels, candidates, nodes) array is formed (the
-    faster by far: docs/dev/gas_storage_notes.md, "The factor lattice as the start")."""
-    levels = jnp.asarray(grid.levels)
-    positions, valid = candidate_inventories(inputs, scene, grid, levels, floor_tomorrow)  # (N, M)
-    net = positions - levels[:, None]
-    fixed = flows_and_cash(inputs, scene, net, 0.0, day, None)[2]
-    per_price = flows_and_cash(inputs, scene, net, 1.0, day, None)[2] - fixed
-    scaled = jnp.clip(positions / grid.spacing, 0.0, grid.nodes - 1)
-    low = jnp.clip(jnp.floor(scaled).astype(int), 0, grid.nodes - 2)
-    weight = scaled - low
-    by_level = continuation.T  # (N, R)
-
-    def candidate(m, best):
-        value = (1 - weight[:, m, None]) * by_level[low[:, m]] + weight[:, m, None] * by_level[low[:, m] + 1]
-        score = per_price[:, m, None] * price + fixed[:, m, None] + value
-        return jnp.maximum(best, jnp.where(valid[:, m, None], score, -jnp.inf))
-
-    return jax.lax.fori_loop(0, positions.shape[1], candidate, jnp.full(by_level.shape, -jnp.inf)).T
-
-
 def solve_model_lattice(model: AbstractPriceModel, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
                         points: int, *, width: float = MODEL_LATTICE_WIDTH) -> ModelLattice:
     """Backward induction on `points` values per factor (module docstring).
@@ -188,7 +164,7 @@ def _solve(model, inputs, scene, grid, points: int, width: float) -> ModelLattic
     def back(later, today):
         day, price, floor_tomorrow, bound_low, bound_high = today
         continuation = expect(weights, later.reshape(cube + (-1,))).reshape(later.shape)
-        values = _node_decisions(inputs, scene, grid, price, day, floor_tomorrow, continuation)
+        _, values = level_decisions(inputs, scene, grid, price, day, floor_tomorrow, continuation)
         positions = jnp.clip(levels, bound_low, bound_high)
         value = interpolate_levels(continuation, positions, grid.spacing)
         low, high = continuation_targets(inputs, scene, value, positions, price, day, grid.spacing)
