@@ -47,7 +47,9 @@ from ._price_models import AbstractPriceModel
 # among + k G / 8, the expectation's multiply-adds, about an eighth of a candidate's cost, measured;
 # docs/dev/gas_storage_notes.md, "The factor lattice as the start").
 MODEL_LATTICE_WORK = 1.2e10
-MODEL_LATTICE_POINTS = (9, 101)  # the fewest and the most points per factor `lattice_points` gives
+# The fewest and the most points per factor `lattice_points` gives: below 21 the lattice's start lost to
+# the LSMC's where measured (docs/dev/gas_storage_notes.md, "The factor lattice as the start").
+MODEL_LATTICE_POINTS = (21, 101)
 # Each axis spans +- this many of its largest standard deviations over the horizon (chosen on the
 # fast facilities of both families: docs/dev/gas_storage_notes.md, "The factor lattice as the start").
 MODEL_LATTICE_WIDTH = 3.0
