@@ -58,13 +58,15 @@ MODEL_LATTICE_WIDTH = 3.0
 class ModelLattice(NamedTuple):
     """`unit` U (k, k) and `axes` (k, G): z = U^-1 X on the grid; `low`, `high`: the basestock
     targets b_L, b_U for tomorrow's inventory [MMBtu] of every day and node, shape (T, G, ..., G)
-    (k axes); `value`: V_0 at the initial inventory and X_0 = 0 [$]."""
+    (k axes); `value`: V_0 at the initial inventory and X_0 = 0 [$]; `values`: V_t at every node
+    and level, shape (T, G, ..., G, N) [$], where asked for (`keep_values`), else None."""
 
     unit: jax.Array
     axes: jax.Array
     low: jax.Array
     high: jax.Array
     value: jax.Array
+    values: jax.Array | None = None
 
 
 def _coordinates(model: AbstractPriceModel) -> tuple[jax.Array, jax.Array, jax.Array]:
@@ -137,17 +139,19 @@ def interpolate_grid(axes: jax.Array, table: jax.Array, z: jax.Array) -> jax.Arr
 
 
 def solve_model_lattice(model: AbstractPriceModel, inputs: StorageInputs, scene: Scene, grid: InventoryGrid,
-                        points: int, *, width: float = MODEL_LATTICE_WIDTH) -> ModelLattice:
-    """Backward induction on `points` values per factor (module docstring).
+                        points: int, *, width: float = MODEL_LATTICE_WIDTH,
+                        keep_values: bool = False) -> ModelLattice:
+    """Backward induction on `points` values per factor (module docstring); `keep_values`: return
+    every day's value table too (T x G^k x N numbers).
 
     **Raises:** `InputError` for `points` outside [3, 401] or `width` outside [1, 50]."""
     check_count("points", points, 3, 401)
     check_range("width", width, 1.0, 50.0)
-    return _solve(model, inputs, scene, grid, int(points), float(width))
+    return _solve(model, inputs, scene, grid, int(points), float(width), bool(keep_values))
 
 
 @eqx.filter_jit
-def _solve(model, inputs, scene, grid, points: int, width: float) -> ModelLattice:
+def _solve(model, inputs, scene, grid, points: int, width: float, keep_values: bool) -> ModelLattice:
     unit, drift, sd = _coordinates(model)
     k, n_days = drift.shape[0], inputs.n_days
     spread = jax.scipy.linalg.solve_triangular(unit, model.covariances(n_days), lower=True, unit_diagonal=True)
@@ -170,11 +174,11 @@ def _solve(model, inputs, scene, grid, points: int, width: float) -> ModelLattic
         positions = jnp.clip(levels, bound_low, bound_high)
         value = interpolate_levels(continuation, positions, grid.spacing)
         low, high = continuation_targets(inputs, scene, value, positions, price, day, grid.spacing)
-        return values, (low.reshape(cube), high.reshape(cube))
+        return values, (low.reshape(cube), high.reshape(cube), values.reshape(cube + (-1,)) if keep_values else None)
 
-    values, (low, high) = jax.lax.scan(
+    values, (low, high, tables) = jax.lax.scan(
         back, jnp.zeros((points ** k, grid.nodes)),
         (jnp.arange(n_days), prices.T, inventory_floor(inputs, scene, None)[1:], floor_next, ceiling_next),
         reverse=True)
     origin = interpolate_grid(axes, values.reshape(cube + (-1,)), jnp.zeros((1, k)))
-    return ModelLattice(unit, axes, low, high, start_value(inputs, grid, origin)[0])
+    return ModelLattice(unit, axes, low, high, start_value(inputs, grid, origin)[0], tables)
