@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from finance import gas_storage as gs
+from snapo_ode import InputError
 from finance.gas_storage._lattice import solve_factor_lattice
 from finance.gas_storage._lsmc import inventory_grid
 from finance.gas_storage._model import stochastic_scene
@@ -19,6 +20,7 @@ from finance.gas_storage._model_lattice import (
     _expectation_weights,
     expect,
     interpolate_grid,
+    lattice_points,
     solve_model_lattice,
 )
 from finance.gas_storage._model_study import value_on_model
@@ -116,3 +118,17 @@ def test_the_study_starts_where_the_training_paths_value_more():
     better = "lattice" if out["lattice_start_in_sample"] > out["lsmc_start_in_sample"] else "lsmc"
     assert out["snapo_start"] == better
     assert (out["policy"].lattice is not None) == (better == "lattice")
+
+
+@pytest.mark.parametrize("fields", [(6.0, 1.2, 0.0, -0.6), (6.0, 0.0, 0.5, -0.6)])
+def test_a_degenerate_step_has_no_lattice(fields):
+    """A zero volatility: no coordinates to grid, so no lattice (the start is the LSMC's) and a
+    direct solve is refused with the reason, before any compile."""
+    model = TwoFactorModel(*(jnp.asarray(v) for v in fields))
+    facility, curve = gs.CASES["bdj"]()
+    inputs = gs.make_inputs(facility, curve[:30])
+    scene = stochastic_scene()
+    grid = inventory_grid(inputs, scene, 41)
+    assert lattice_points(model, inputs, scene, grid) is None
+    with pytest.raises(InputError, match="zero variance"):
+        solve_model_lattice(model, inputs, scene, grid, 21)

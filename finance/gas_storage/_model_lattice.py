@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from snapo_ode import Scene, check_count, check_range
+from snapo_ode import InputError, Scene, check_count, check_range
 
 from ._basestock import inventory_bounds
 from ._inputs import StorageInputs
@@ -78,10 +78,20 @@ def _coordinates(model: AbstractPriceModel) -> tuple[jax.Array, jax.Array, jax.A
     return unit, drift, sd
 
 
+def _degenerate(model: AbstractPriceModel) -> bool:
+    """Whether a day's step has a direction of zero variance (a zero volatility, a correlation of
+    +-1): the coordinates z would divide by it."""
+    sd = np.asarray(_coordinates(model)[2])
+    return not bool(np.all(np.isfinite(sd) & (sd > 1e-300)))
+
+
 def lattice_points(model: AbstractPriceModel, inputs: StorageInputs, scene: Scene, grid: InventoryGrid, *,
                    work: float = MODEL_LATTICE_WORK) -> int | None:
     """The most points per factor, odd, between MODEL_LATTICE_POINTS, whose lattice costs at most
-    `work`; None where even the fewest cost more (the start is then LSMC's)."""
+    `work`; None where even the fewest cost more or the model's step is degenerate (`_degenerate`):
+    the start is then LSMC's."""
+    if _degenerate(model):
+        return None
     k = len(model.factor_names)
     window = np.asarray(grid.window).size + 3  # the candidates a level decides among
     low, high = MODEL_LATTICE_POINTS
@@ -144,9 +154,13 @@ def solve_model_lattice(model: AbstractPriceModel, inputs: StorageInputs, scene:
     """Backward induction on `points` values per factor (module docstring); `keep_values`: return
     every day's value table too (T x G^k x N numbers).
 
-    **Raises:** `InputError` for `points` outside [3, 401] or `width` outside [1, 50]."""
+    **Raises:** `InputError` for `points` outside [3, 401], `width` outside [1, 50] or a model
+    whose daily step is degenerate (a zero volatility or a correlation of +-1)."""
     check_count("points", points, 3, 401)
     check_range("width", width, 1.0, 50.0)
+    if _degenerate(model):
+        raise InputError(f"{type(model).__name__}: a factor's daily step has zero variance (a zero volatility or a "
+                         "correlation of +-1); the factor lattice needs every factor random. Use the LSMC start.")
     return _solve(model, inputs, scene, grid, int(points), float(width), bool(keep_values))
 
 
