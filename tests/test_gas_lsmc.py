@@ -156,3 +156,36 @@ def test_cli_lsmc_on_a_grid_that_cannot_trade_is_refused_before_computing(tmp_pa
     assert main(["gas", "--stochastic", "--lsmc", "--no-progress", "--json", str(tmp_path / "x.json")]) == 2
     error = capsys.readouterr().err
     assert "lsmc_nodes = 101" in error and "--lsmc-nodes 106" in error and not (tmp_path / "x.json").exists()
+
+
+def test_a_days_decisions_are_the_brute_force_best_candidate():
+    """`level_decisions` (a loop over the candidates keeping the running maximum) against a NumPy
+    enumeration of every path, level and feasible candidate (the exact cash of the move plus the
+    continuation interpolated there) on a ratcheted facility with fuel, costs and discounting:
+    the decided value is the maximum and the credited one is the cash plus `later` at the first
+    best candidate, to round-off."""
+    from finance.gas_storage._family import facility
+    from finance.gas_storage._lsmc import candidate_inventories, level_decisions
+    from finance.gas_storage._model import flows_and_cash, inventory_floor, stochastic_scene
+
+    inputs = gs.make_inputs(facility("everything", 3), 3.0 + np.sin(np.arange(20) / 3.0))
+    scene = stochastic_scene()
+    grid = inventory_grid(inputs, scene, 41)
+    rng = np.random.default_rng(4)
+    price = rng.uniform(1.0, 6.0, 7)
+    continuation = np.cumsum(rng.normal(3.0, 1.0, (7, 41)), axis=1) * float(grid.spacing)
+    later = continuation + rng.normal(0.0, 1e3, (7, 41))
+    day, floor = 5, inventory_floor(inputs, scene, None)[6]
+    credited, decided = level_decisions(inputs, scene, grid, price, day, floor, continuation, later)
+    levels = np.asarray(grid.levels)
+    positions, valid = (np.asarray(a) for a in candidate_inventories(inputs, scene, grid, levels, floor))
+    scale = np.abs(later).max()
+    for p in range(7):
+        for n, level in enumerate(levels):
+            moves = positions[n][valid[n]]
+            cash = np.asarray(flows_and_cash(inputs, scene, moves - level, price[p], day, None)[2])
+            score = cash + np.interp(moves, levels, continuation[p])
+            best = int(np.argmax(score))
+            assert decided[p, n] == pytest.approx(score[best], abs=1e-12 * scale)
+            assert credited[p, n] == pytest.approx(cash[best] + np.interp(moves[best], levels, later[p]),
+                                                   abs=1e-12 * scale)

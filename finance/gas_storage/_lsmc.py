@@ -143,7 +143,7 @@ def level_decisions(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, pr
     scaled = jnp.clip(positions / grid.spacing, 0.0, grid.nodes - 1)
     low = jnp.clip(jnp.floor(scaled).astype(int), 0, grid.nodes - 2)
     weight = scaled - low
-    by_level = continuation.T  # (N, paths), or (N, B) of coefficients
+    by_level = jnp.asarray(continuation).T  # (N, paths), or (N, B) of coefficients
 
     def candidate(m, carry):
         best, best_m = carry
