@@ -19,9 +19,14 @@ from gas_factor_dp_diagnosis import bench_row
 
 import snapo_ode
 from finance.gas_storage._bench_family import chosen_cases
-from finance.gas_storage._lattice import _calls, _kinks
 from finance.gas_storage._lsmc import inventory_grid
-from finance.gas_storage._model_lattice import _coordinates, interpolate_grid, solve_model_lattice
+from finance.gas_storage._model_lattice import (
+    _coordinates,
+    hat_expectations,
+    interpolate_grid,
+    lattice_coordinates,
+    solve_model_lattice,
+)
 from finance.gas_storage._model_study import LEVELS_PER_FLOW, NODES_AT_LEAST, _bound
 from finance.gas_storage._penalty import AbstractPenalty
 from finance.gas_storage._price_model_file import sample_price_model
@@ -47,10 +52,7 @@ class LatticeValuePenalty(AbstractPenalty):
         self.later = jnp.concatenate([lattice.values[1:], jnp.zeros_like(lattice.values[:1])])
 
     def daily(self, inputs, prices, paths=None):
-        k = self.unit.shape[0]
-        x = paths.factors
-        z = jax.scipy.linalg.solve_triangular(self.unit, x.reshape(-1, k).T, lower=True, unit_diagonal=True)
-        z = jnp.swapaxes(z.T.reshape(x.shape), 0, 1)  # (T, paths, k)
+        z = jnp.swapaxes(lattice_coordinates(self.unit, paths.factors), 0, 1)  # (T, paths, k)
         return z, jnp.concatenate([z[1:], z[-1:]]), self.later
 
     def today(self, day_inputs):
@@ -58,8 +60,7 @@ class LatticeValuePenalty(AbstractPenalty):
         mean = z @ self.drift.T
         expected = None
         for d in range(self.unit.shape[0]):
-            h = jnp.zeros(self.axes.shape[1]).at[0].set(1.0) + _calls(self.axes[d], mean[:, d], self.sd[d]) @ _kinks(
-                self.axes[d])  # (paths, G)
+            h = hat_expectations(self.axes[d], mean[:, d], self.sd[d])  # (paths, G)
             expected = (jnp.einsum("pi,i...->p...", h, table) if expected is None
                         else jnp.einsum("pi,pi...->p...", h, expected))
         return interpolate_grid(self.axes, table, following) - expected

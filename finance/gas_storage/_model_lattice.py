@@ -107,16 +107,26 @@ def lattice_points(model: AbstractPriceModel, inputs: StorageInputs, scene: Scen
     return points
 
 
+def lattice_coordinates(unit: jax.Array, factors: jax.Array) -> jax.Array:
+    """z = U^-1 X of `factors` X (..., k), same shape: the coordinates the lattice's axes are in."""
+    k = unit.shape[0]
+    z = jax.scipy.linalg.solve_triangular(unit, factors.reshape(-1, k).T, lower=True, unit_diagonal=True)
+    return z.T.reshape(factors.shape)
+
+
+def hat_expectations(axis: jax.Array, mean: jax.Array, sd) -> jax.Array:
+    """E h_j(Y), Y ~ N(mean, sd^2), of the hat functions h_j of `axis` (G,) (flat beyond its
+    ends): shape mean.shape + (G,), so that E V~(Y) = hat_expectations(...) @ V."""
+    return jnp.zeros(axis.shape[0]).at[0].set(1.0) + _calls(axis, mean, sd) @ _kinks(axis)
+
+
 def _expectation_weights(axes: jax.Array, drift: jax.Array, sd: jax.Array) -> list[jax.Array]:
     """h_d for d = 0..k-1, shape (G,) * (d + 1) + (G,): the expected hat functions of axis d at
     every node of the first d + 1 axes."""
-    k, points = axes.shape
     weights = []
-    for d in range(k):
+    for d in range(axes.shape[0]):
         nodes = jnp.stack(jnp.meshgrid(*axes[:d + 1], indexing="ij"), -1)  # (G,) * (d + 1) + (d + 1,)
-        mean = nodes @ drift[d, :d + 1]
-        kinks = _kinks(axes[d])
-        weights.append(jnp.zeros(points).at[0].set(1.0) + _calls(axes[d], mean, sd[d]) @ kinks)
+        weights.append(hat_expectations(axes[d], nodes @ drift[d, :d + 1], sd[d]))
     return weights
 
 

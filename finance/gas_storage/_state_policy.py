@@ -34,7 +34,7 @@ from ._basestock import BAND_INIT, TARGET_OVERSHOOT, follow_targets, inventory_b
 from ._inputs import StorageInputs
 from ._lsmc import InventoryGrid, continuation_targets, interpolate_levels
 from ._model import Schedule, calendar_features, spot_prices
-from ._model_lattice import ModelLattice, interpolate_grid
+from ._model_lattice import ModelLattice, interpolate_grid, lattice_coordinates
 from ._paths import PricePaths
 from ._state_lsmc import StateBasis, StateLSMCFit, state_basis
 
@@ -84,9 +84,7 @@ def lattice_start_logits(lattice: ModelLattice, inputs: StorageInputs, scene: Sc
     targets, interpolated multilinearly at each path's z = U^-1 X: shape (paths, T, 2), no gradient."""
     lattice, inputs, factors = jax.lax.stop_gradient((lattice, inputs, paths.factors))
     floor, ceiling = (bound[1:] for bound in inventory_bounds(inputs, scene, None))
-    k = lattice.unit.shape[0]
-    z = jax.scipy.linalg.solve_triangular(lattice.unit, factors.reshape(-1, k).T, lower=True, unit_diagonal=True)
-    z = jnp.swapaxes(z.T.reshape(factors.shape), 0, 1)  # (T, paths, k)
+    z = jnp.swapaxes(lattice_coordinates(lattice.unit, factors), 0, 1)  # (T, paths, k)
 
     def day_logits(low, high, z_t, floor_t, ceiling_t):
         return _logits_of_targets(interpolate_grid(lattice.axes, low, z_t), interpolate_grid(lattice.axes, high, z_t),
