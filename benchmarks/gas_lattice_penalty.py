@@ -1,7 +1,5 @@
-"""Would the factor lattice's value make the bound tighter than the state LSMC's? A prototype
-penalty w_t(n') = V~_{t+1}(n', z_{t+1}) - E_t V~_{t+1}(n', z_{t+1}) from `_model_lattice.py`'s
-value tables (the expectation exact: the tensor-product hat functions' expected values given
-z_t, as in the lattice's own backward pass), against the production penalty (`_state_penalty.py`)
+"""How much tighter does the factor lattice's penalty (`_model_lattice_penalty.py`) bound than
+the state LSMC's (`_state_penalty.py`), at a chosen number of points per factor,
 on a family row under a shipped model: each bound (`_model_study._bound`, the bench's estimator)
 and the gap of the policy started on the lattice, untrained, valued with each penalty as control
 variate (docs/dev/gas_storage_notes.md, "The factor lattice as the start").
@@ -20,50 +18,13 @@ from gas_factor_dp_diagnosis import bench_row
 import snapo_ode
 from finance.gas_storage._bench_family import chosen_cases
 from finance.gas_storage._lsmc import inventory_grid
-from finance.gas_storage._model_lattice import (
-    _coordinates,
-    hat_expectations,
-    interpolate_grid,
-    lattice_coordinates,
-    solve_model_lattice,
-)
+from finance.gas_storage._model_lattice import solve_model_lattice
+from finance.gas_storage._model_lattice_penalty import ModelLatticePenalty
 from finance.gas_storage._model_study import LEVELS_PER_FLOW, NODES_AT_LEAST, _bound
-from finance.gas_storage._penalty import AbstractPenalty
 from finance.gas_storage._price_model_file import sample_price_model
 from finance.gas_storage._state_penalty import fit_state_lsmc_and_penalty
 from finance.gas_storage._state_policy import make_state_policy, simulate_state_policy
 from finance.gas_storage._versus_lsmc import trading_nodes
-
-
-class LatticeValuePenalty(AbstractPenalty):
-    """w_t from the lattice's V_{t+1} tables (`later`, (T, G, ..., G, N), zero on the last day)."""
-
-    model: object  # its name is in the bound's fields
-    unit: jax.Array
-    drift: jax.Array
-    sd: jax.Array
-    axes: jax.Array
-    later: jax.Array
-
-    def __init__(self, model, lattice):
-        self.model = model
-        self.unit, self.drift, self.sd = _coordinates(model)
-        self.axes = lattice.axes
-        self.later = jnp.concatenate([lattice.values[1:], jnp.zeros_like(lattice.values[:1])])
-
-    def daily(self, inputs, prices, paths=None):
-        z = jnp.swapaxes(lattice_coordinates(self.unit, paths.factors), 0, 1)  # (T, paths, k)
-        return z, jnp.concatenate([z[1:], z[-1:]]), self.later
-
-    def today(self, day_inputs):
-        z, following, table = day_inputs
-        mean = z @ self.drift.T
-        expected = None
-        for d in range(self.unit.shape[0]):
-            h = hat_expectations(self.axes[d], mean[:, d], self.sd[d])  # (paths, G)
-            expected = (jnp.einsum("pi,i...->p...", h, table) if expected is None
-                        else jnp.einsum("pi,pi...->p...", h, expected))
-        return interpolate_grid(self.axes, table, following) - expected
 
 
 def main(name: str, paths: int, train: int, model_name: str, points: int) -> None:
@@ -77,7 +38,7 @@ def main(name: str, paths: int, train: int, model_name: str, points: int) -> Non
     start = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None)
     print(f"{name} ({model_name}, {grid.nodes} levels, {points} points, {paths:,} paths, {train:,} training): "
           f"the lattice's start {float(jnp.mean(start.value)):,.0f}", flush=True)
-    for label, penalty in (("state LSMC penalty", production), ("lattice penalty", LatticeValuePenalty(model, lattice))):
+    for label, penalty in (("state LSMC penalty", production), ("lattice penalty", ModelLatticePenalty(model, lattice))):
         began = time.perf_counter()
         out = _bound(penalty, inputs, scene, grid, evaluation, {"start": start}, paths, False)
         print(f"  {label}: bound {out['dual_upper_bound']:,.0f} (SE {out['dual_upper_bound_se']:,.0f}); the start's "

@@ -75,6 +75,7 @@ def test_bench_gas_family_under_a_price_model_writes_its_table(tmp_path):
     assert 0 <= row["lsmc_gap"] < 1 and 0 <= row["snapo_gap"] < 1
     assert table["results"]["flat-fast-90"]["lsmc_nodes"] == 101  # a fast facility: 4 steps to a day's flow fit in 101
     assert row["snapo_start"] in ("lattice", "lsmc") and row["start_seconds"] > 0
+    assert row["dual_penalty_choice"] in ("lattice", "state")
 
 
 def test_state_lsmc_default_grid_has_four_steps_to_a_days_flow():

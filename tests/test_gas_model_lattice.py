@@ -107,7 +107,7 @@ def test_a_policy_started_on_the_lattice_is_written_and_read_back(tmp_path):
     assert gs.load_storage_policy(path).lattice is not None
 
 
-def test_the_study_starts_where_the_training_paths_value_more():
+def test_the_study_starts_and_bounds_where_the_training_paths_say():
     model = MODELS["two-factor"]
     facility, curve = gs.CASES["bdj"]()
     inputs = gs.make_inputs(facility, curve[:30])
@@ -119,6 +119,12 @@ def test_the_study_starts_where_the_training_paths_value_more():
     better = "lattice" if out["lattice_start_in_sample"] > out["lsmc_start_in_sample"] else "lsmc"
     assert out["snapo_start"] == better
     assert (out["policy"].lattice is not None) == (better == "lattice")
+    assert better == "lsmc" or out["policy"].lattice.values is None  # the targets only, not the penalty's tables
+    # The bound's penalty: the lower pilot bound on training paths, named in the bound's fields.
+    bounds = out["penalty_pilot_bounds"]
+    assert out["penalty_lattice_points"] is not None and set(bounds) == {"state", "lattice"}
+    assert out["dual_penalty_choice"] == min(bounds, key=bounds.get)
+    assert out["dual_penalty"].startswith({"lattice": "factor lattice", "state": "state LSMC"}[out["dual_penalty_choice"]])
 
 
 @pytest.mark.parametrize("fields", [(6.0, 1.2, 0.0, -0.6), (6.0, 0.0, 0.5, -0.6)])

@@ -39,7 +39,8 @@ COLUMNS = (
     Column("rolling intrinsic", "rolling_intrinsic", _number), Column("LSMC", "lsmc_out_of_sample", ",.0f"),
     Column("SNAPO", "snapo_out_of_sample", ",.0f"), Column("SNAPO - LSMC", "snapo_minus_lsmc", ",.0f"),
     Column("paired SE", "snapo_minus_lsmc_se", ",.0f"), Column("SNAPO - rolling", "snapo_minus_rolling", _number),
-    Column("dual bound", "dual_upper_bound", _number), Column("SNAPO gap", "snapo_gap", _percent),
+    Column("dual bound", "dual_upper_bound", _number), Column("penalty", "dual_penalty_choice"),
+    Column("SNAPO gap", "snapo_gap", _percent),
     Column("LSMC gap", "lsmc_gap", _percent), Column("start", "snapo_start"),
     Column("start s", "start_seconds", ".1f"), Column("SNAPO s", "snapo_seconds", ".1f"), Column("goals met", "goals"),
 )
@@ -87,7 +88,7 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
         results[case.name] = {k: v for k, v in result.items() if k not in ("deltas", "lsmc_pathwise_deltas")}
         row = {"case": case.name, **{k: result.get(k) for k in (
             "intrinsic_lp", "rolling_intrinsic", "lsmc_out_of_sample", "snapo_out_of_sample", "snapo_minus_lsmc",
-            "snapo_minus_lsmc_se", "snapo_minus_rolling", "dual_upper_bound", "snapo_gap", "lsmc_gap",
+            "snapo_minus_lsmc_se", "snapo_minus_rolling", "dual_upper_bound", "dual_penalty_choice", "snapo_gap", "lsmc_gap",
             "snapo_start", "start_seconds", "snapo_seconds")}, "warning_count": len(result["warnings"])}
         row["goals"] = _goals(row)
         rows.append(row)

@@ -44,7 +44,8 @@ def run_gas_on_model(args, inputs, settings) -> int:
           f"{result['rolling_intrinsic'] or float('nan'):,.0f}, LSMC {result['lsmc_out_of_sample']:,.0f}, SNAPO "
           f"{result['snapo_out_of_sample']:,.0f} (start: {result['snapo_start']}; SNAPO - LSMC "
           f"{result['snapo_minus_lsmc']:,.0f} +- "
-          f"{result['snapo_minus_lsmc_se']:,.0f}), dual bound {result['dual_upper_bound'] or float('nan'):,.0f}")
+          f"{result['snapo_minus_lsmc_se']:,.0f}), dual bound {result['dual_upper_bound'] or float('nan'):,.0f} "
+          f"(penalty: {result.get('dual_penalty_choice') or 'none'})")
     print(f"  written: {written}")
     for warning in result["warnings"]:
         print(f"snapo: warning: {warning}", file=sys.stderr)

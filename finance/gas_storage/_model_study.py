@@ -31,8 +31,9 @@ from ._lp import solve_intrinsic
 from ._lsmc import inventory_grid
 from ._model import deterministic_scene, spot_prices, stochastic_scene
 from ._model_lattice import lattice_points, solve_model_lattice
+from ._model_lattice_penalty import PILOT_PATHS, ModelLatticePenalty, penalty_points, tighter_penalty
 from ._paths import PricePaths
-from ._price_models import AbstractPriceModel
+from ._price_models import AbstractPriceModel, model_paths
 from ._results import standard_error
 from ._rolling_intrinsic import rolling_intrinsic
 from ._state_lsmc import fit_state_lsmc, run_state_lsmc, state_lsmc_value_and_deltas
@@ -47,6 +48,7 @@ MODEL_TRAINING = dict(train_paths=512, train_steps=300, learning_rate=3e-3, shar
 DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths (its grid's work)
 CORRECTION_PATHS = 250  # and its finer grid's correction on the first this many (`_bound`)
 ROLLING_PATHS = 500  # rolling intrinsic on the first this many evaluation paths (its work grows as T^2)
+_PENALTY_NAMES = {"StatePenalty": "state LSMC value", "ModelLatticePenalty": "factor lattice value"}
 
 
 def _paired(a, b) -> tuple[float, float]:
@@ -85,8 +87,14 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     # SNAPO, started on the better on the training paths of the LSMC's and the factor lattice's targets,
     # trained on samples of the training paths.
     start = time.perf_counter()
-    policy, train_start, starts = _chosen_start(model if bounded else None, fit, inputs, scene, grid, training, seed)
-    out_start = dict(starts, start_seconds=time.perf_counter() - start)
+    points = lattice_points(model, inputs, scene, grid) if bounded else None
+    penalty_points_ = penalty_points(model, inputs, grid, points) if bounded else None
+    shared = penalty_points_ is not None and penalty_points_ == points  # one lattice, its tables kept
+    lattice = None if points is None else solve_model_lattice(model, inputs, scene, grid, points, keep_values=shared)
+    # The policy carries the lattice's targets only: its value tables would ride in the optimiser and the saved file.
+    start_lattice = None if lattice is None else lattice._replace(values=None)
+    policy, train_start, starts = _chosen_start(start_lattice, fit, inputs, scene, grid, training, seed)
+    out_start = dict(starts, lattice_points=points, start_seconds=time.perf_counter() - start)
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
 
     start = time.perf_counter()
@@ -99,13 +107,11 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
                                                start=train_start[rows]).value)
         return -value / scale, {"value": value}
 
-    start_schedule = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None,
-                                                           start=eval_start)
+    untrained = policy
     trained = snapo_ode.train(loss, policy, steps=settings["train_steps"], learning_rate=settings["learning_rate"],
                               key=jax.random.fold_in(jax.random.key(seed), 1), progress=progress,
                               description="training storage policy (price model)")
     policy = trained.params
-    snapo = eqx.filter_jit(simulate_state_policy)(policy, inputs, scene, evaluation, sharpness=None, start=eval_start)
 
     @eqx.filter_jit
     def smooth_value_and_deltas(policy, inputs, eval_start):
@@ -117,6 +123,12 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
 
     snapo_smooth, snapo_deltas = smooth_value_and_deltas(policy, inputs, eval_start)
     snapo_seconds = time.perf_counter() - start
+    # The report's hard values, on the evaluation paths: the start untrained, and the trained policy.
+    start = time.perf_counter()
+    hard = eqx.filter_jit(simulate_state_policy)
+    start_schedule, snapo = (hard(p, inputs, scene, evaluation, sharpness=None, start=eval_start)
+                             for p in (untrained, policy))
+    out_start["snapo_valuation_seconds"] = time.perf_counter() - start
     policies = {"snapo": snapo, "lsmc": lsmc, "intrinsic": intrinsic_schedule(inputs, scene, intrinsic, eval_prices)}
     out = {
         "price_model": None if model is None else type(model).__name__, "paths": evaluation.shape[0],
@@ -144,28 +156,38 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
                rolling_paths=count, rolling_every_days=1, rolling_seconds=rolling_seconds)
     out["snapo_minus_rolling"], out["snapo_minus_rolling_se"] = _paired(np.asarray(snapo.value)[:count], rolling.value)
     policies["rolling_intrinsic"] = rolling
+    start = time.perf_counter()
+    if penalty_points_ is not None:
+        lattice = lattice if shared else solve_model_lattice(model, inputs, scene, grid, penalty_points_,
+                                                             keep_values=True)
+        pilot = model_paths(model, inputs.forward_curve, PILOT_PATHS, jax.random.fold_in(jax.random.key(seed), 2))
+        penalty, choice = _chosen_penalty(penalty, ModelLatticePenalty(model, lattice), inputs, scene, grid, pilot,
+                                          min(dual_paths, evaluation.shape[0]))
+    else:
+        choice = {"dual_penalty_choice": "state", "penalty_pilot_bounds": None, "penalty_pilot_paths": None}
+    out.update(choice, penalty_lattice_points=penalty_points_, penalty_choice_seconds=time.perf_counter() - start)
     out.update(_bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external))
     warnings += out.pop("bound_warnings")
     return {**out, "warnings": warnings, "policy": policy}
 
 
-def _chosen_start(model, fit, inputs, scene, grid, training, seed):
-    """The untrained `StatePolicy` on the LSMC `fit`'s targets or, where `model` is given and its
-    factor lattice affordable (`lattice_points`), on the lattice's: whichever values more, hard,
-    on the `training` paths (the evaluation paths are not seen). Returns the policy, its start's
-    logits on the training paths and the JSON fields of the choice."""
+def _chosen_start(lattice, fit, inputs, scene, grid, training, seed):
+    """The untrained `StatePolicy` on the LSMC `fit`'s targets or, where the factor `lattice` is
+    given (None where unaffordable: `lattice_points`), on the lattice's: whichever values more,
+    hard, on the `training` paths (the evaluation paths are not seen; without a lattice neither
+    start is valued). Returns the policy, its start's logits on the training paths and the JSON
+    fields of the choice."""
     key = jax.random.key(seed)
     start_logits = eqx.filter_jit(lambda policy: policy.start_logits(inputs, scene, training))
     in_sample = eqx.filter_jit(lambda policy, start: jnp.mean(
         simulate_state_policy(policy, inputs, scene, training, sharpness=None, start=start).value))
     policy = make_state_policy(fit, grid, training, key=key)
     logits = start_logits(policy)
-    points = None if model is None else lattice_points(model, inputs, scene, grid)
-    fields = {"snapo_start": "lsmc", "lattice_points": points, "lsmc_start_in_sample": float(in_sample(policy, logits)),
-              "lattice_start_in_sample": None, "lattice_value": None}
-    if points is None:
+    fields = {"snapo_start": "lsmc", "lsmc_start_in_sample": None, "lattice_start_in_sample": None,
+              "lattice_value": None}
+    if lattice is None:  # no choice to make: nothing valued
         return policy, logits, fields
-    lattice = solve_model_lattice(model, inputs, scene, grid, points)
+    fields["lsmc_start_in_sample"] = float(in_sample(policy, logits))
     on_lattice = make_state_policy(fit, grid, training, key=key, lattice=lattice)
     lattice_logits = start_logits(on_lattice)
     fields.update(lattice_start_in_sample=float(in_sample(on_lattice, lattice_logits)), lattice_value=float(lattice.value))
@@ -174,8 +196,18 @@ def _chosen_start(model, fit, inputs, scene, grid, training, seed):
     return policy, logits, fields
 
 
+def _chosen_penalty(state, lattice, inputs, scene, grid, pilot, count):
+    """The state LSMC's `state` penalty or the factor `lattice`'s, whichever bounds lower on the
+    `pilot` paths on the grid the bound takes for `count` evaluation paths (`tighter_penalty`);
+    the JSON fields of the choice."""
+    relaxed = relaxed_grid(inputs, scene, paths=count, work=DUAL_WORK)
+    name, bounds = tighter_penalty({"state": state, "lattice": lattice}, inputs, scene, grid, pilot, relaxed)
+    return {"state": state, "lattice": lattice}[name], {"dual_penalty_choice": name, "penalty_pilot_bounds": bounds,
+                                                         "penalty_pilot_paths": pilot.shape[0]}
+
+
 def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external) -> dict:
-    """The dual bound with the state `penalty` on the first `dual_paths` evaluation paths, each
+    """The dual bound with `penalty` on the first `dual_paths` evaluation paths, each
     policy's value with the penalty as control variate and its gap, and the checks.
 
     The bound estimated is the one on the finest grid affordable on the first CORRECTION_PATHS
@@ -206,7 +238,8 @@ def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, exter
     estimate = float(upper.mean() + correction.mean())
     spread = float(np.hypot(standard_error(upper), standard_error(correction)))
     out = {"dual_upper_bound": estimate, "dual_upper_bound_se": spread,
-           "dual_penalty": f"state LSMC value, exact conditional means under {type(penalty.model).__name__}",
+           "dual_penalty": f"{_PENALTY_NAMES[type(penalty).__name__]}, exact conditional means under "
+                           f"{type(penalty.model).__name__}",
            "dual_paths": count, "dual_grid_nodes": fine.nodes, "dual_relaxation": fine.relaxation,
            "dual_control_grid_nodes": control.nodes, "dual_control_relaxation": control.relaxation,
            "dual_correction_paths": few, "dual_correction": float(correction.mean()),
