@@ -120,10 +120,10 @@ def test_the_study_starts_and_bounds_where_the_training_paths_say():
     assert out["snapo_start"] == better
     assert (out["policy"].lattice is not None) == (better == "lattice")
     assert better == "lsmc" or out["policy"].lattice.values is None  # the targets only, not the penalty's tables
-    # The bound's penalty: the lower pilot bound on training paths, named in the bound's fields.
-    bounds = out["penalty_pilot_bounds"]
-    assert out["penalty_lattice_points"] is not None and set(bounds) == {"state", "lattice"}
-    assert out["dual_penalty_choice"] == min(bounds, key=bounds.get)
+    # The bound's penalty: the one under which LSMC's pilot gap is smaller, named in the bound's fields.
+    gaps = out["penalty_pilot_gaps"]
+    assert out["penalty_lattice_points"] is not None and set(gaps) == set(out["penalty_pilot_bounds"]) == {"state", "lattice"}
+    assert out["dual_penalty_choice"] == min(gaps, key=gaps.get) and out["penalty_pilot_gap_difference_se"] > 0
     assert out["dual_penalty"].startswith({"lattice": "factor lattice", "state": "state LSMC"}[out["dual_penalty_choice"]])
 
 

@@ -161,10 +161,11 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
         lattice = lattice if shared else solve_model_lattice(model, inputs, scene, grid, penalty_points_,
                                                              keep_values=True)
         pilot = model_paths(model, inputs.forward_curve, PILOT_PATHS, jax.random.fold_in(jax.random.key(seed), 2))
-        penalty, choice = _chosen_penalty(penalty, ModelLatticePenalty(model, lattice), inputs, scene, grid, pilot,
-                                          min(dual_paths, evaluation.shape[0]))
+        penalty, choice = _chosen_penalty(penalty, ModelLatticePenalty(model, lattice), fit, inputs, scene, grid,
+                                          pilot, min(dual_paths, evaluation.shape[0]))
     else:
-        choice = {"dual_penalty_choice": "state", "penalty_pilot_bounds": None, "penalty_pilot_paths": None}
+        choice = {"dual_penalty_choice": "state", "penalty_pilot_paths": None, "penalty_pilot_bounds": None,
+                  "penalty_pilot_gaps": None, "penalty_pilot_gap_difference_se": None}
     out.update(choice, penalty_lattice_points=penalty_points_, penalty_choice_seconds=time.perf_counter() - start)
     out.update(_bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external))
     warnings += out.pop("bound_warnings")
@@ -196,14 +197,15 @@ def _chosen_start(lattice, fit, inputs, scene, grid, training, seed):
     return policy, logits, fields
 
 
-def _chosen_penalty(state, lattice, inputs, scene, grid, pilot, count):
-    """The state LSMC's `state` penalty or the factor `lattice`'s, whichever bounds lower on the
-    `pilot` paths on the grid the bound takes for `count` evaluation paths (`tighter_penalty`);
-    the JSON fields of the choice."""
+def _chosen_penalty(state, lattice, fit, inputs, scene, grid, pilot, count):
+    """The state LSMC's `state` penalty or the factor `lattice`'s, whichever bounds the LSMC
+    `fit`'s rule more tightly on the `pilot` paths, on the grid the bound takes for `count`
+    evaluation paths (`tighter_penalty`); the JSON fields of the choice."""
     relaxed = relaxed_grid(inputs, scene, paths=count, work=DUAL_WORK)
-    name, bounds = tighter_penalty({"state": state, "lattice": lattice}, inputs, scene, grid, pilot, relaxed)
-    return {"state": state, "lattice": lattice}[name], {"dual_penalty_choice": name, "penalty_pilot_bounds": bounds,
-                                                         "penalty_pilot_paths": pilot.shape[0]}
+    candidates = {"state": state, "lattice": lattice}
+    name, fields = tighter_penalty(candidates, inputs, scene, grid, pilot, relaxed,
+                                   run_state_lsmc(fit, inputs, scene, grid, pilot))
+    return candidates[name], dict(fields, dual_penalty_choice=name, penalty_pilot_paths=pilot.shape[0])
 
 
 def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external) -> dict:
