@@ -124,10 +124,13 @@ def test_estimates_equal_scipy_least_squares(chain, lab):
     reference = scipy.optimize.least_squares(lambda t: np.asarray(residuals(t)), np.zeros(len(truth)),
                                              jac=lambda t: np.asarray(with_jacobian(t)[1]), method="lm",
                                              xtol=1e-15, ftol=1e-15, gtol=1e-15)
-    np.testing.assert_allclose(result.theta, reference.x, rtol=1e-6)
+    se = np.sqrt(np.diag(result.theta_covariance))
+    # The same optimum to a millionth of a standard error: the parameters are correlated (a multiplier and
+    # its activation energy), so along that valley the two solvers stop ~1e-7 apart, varying with the CPU.
+    assert np.all(np.abs(result.theta - reference.x) <= 1e-6 * se + 1e-12), (result.theta - reference.x, se)
     assert result.sd_known and result.dof == len(data.measurements.value) - 3
     # The truth lies within 4 standard errors (one noisy dataset), and the Wald interval is estimate +/- 1.96 se.
-    assert np.all(np.abs(result.theta - truth) <= 4 * np.sqrt(np.diag(result.theta_covariance)))
+    assert np.all(np.abs(result.theta - truth) <= 4 * se)
     np.testing.assert_allclose(result.wald()[:, 1] - result.estimates, 1.959964 * result.standard_errors, rtol=1e-6)
     assert not result.null_combinations
 
