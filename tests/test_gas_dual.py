@@ -351,3 +351,22 @@ def test_the_bound_s_program_equals_the_program_over_every_move():
     expected = np.maximum(later[:, relaxed.start_nodes[0]], later[:, relaxed.start_nodes[1]])
     bound = np.asarray(dual.dual_bound(penalty, inputs, scene, grid, prices, relaxed=relaxed).values)
     np.testing.assert_allclose(bound, expected, rtol=1e-12)
+
+
+def test_off_model_paths_null_the_bound_and_every_control_variate_value():
+    """A penalty the intrinsic schedule pays with a mean 10 standard errors from zero (the paths
+    do not follow the model): the bound's fields and the values with the penalty as control
+    variate become null; with a mean-zero penalty nothing changes."""
+    from finance.gas_storage._certificate import penalty_mean_check
+
+    cash = np.full(400, 100.0)
+    noise = np.random.default_rng(0).standard_normal(400)
+    fields = {"dual_upper_bound": 110.0, "snapo_gap": 0.01, "snapo_value_control_variate": 101.0,
+              "snapo_minus_rolling_control_variate": 2.0, "snapo_minus_rolling_control_variate_se": 0.5,
+              "snapo_out_of_sample": 100.0}
+    fine = dict(fields)
+    assert penalty_mean_check(fine, cash, cash - (noise - noise.mean())) == [] and fine == fields
+    biased = dict(fields)
+    warnings = penalty_mean_check(biased, cash, cash - (noise + 10 * noise.std() / np.sqrt(400)))
+    assert "not certified" in warnings[0] and biased["snapo_out_of_sample"] == 100.0
+    assert all(biased[key] is None for key in fields if key != "snapo_out_of_sample")

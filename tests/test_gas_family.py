@@ -75,7 +75,8 @@ def test_bench_gas_family_under_a_price_model_writes_its_table(tmp_path):
     assert 0 <= row["lsmc_gap"] < 1 and 0 <= row["snapo_gap"] < 1
     assert table["results"]["flat-fast-90"]["lsmc_nodes"] == 101  # a fast facility: 4 steps to a day's flow fit in 101
     assert row["snapo_start"] in ("lattice", "lsmc") and row["start_seconds"] > 0
-    assert row["dual_penalty_choice"] in ("lattice", "state")
+    assert row["dual_penalty_choice"] in ("lattice", "state", "blend")
+    assert row["snapo_minus_rolling_control_variate_se"] > 0
 
 
 def test_state_lsmc_default_grid_has_four_steps_to_a_days_flow():

@@ -122,9 +122,12 @@ def test_the_study_starts_and_bounds_where_the_training_paths_say():
     assert better == "lsmc" or out["policy"].lattice.values is None  # the targets only, not the penalty's tables
     # The bound's penalty: the one under which LSMC's pilot gap is smaller, named in the bound's fields.
     gaps = out["penalty_pilot_gaps"]
-    assert out["penalty_lattice_points"] is not None and set(gaps) == set(out["penalty_pilot_bounds"]) == {"state", "lattice"}
+    assert out["penalty_lattice_points"] is not None
+    assert set(gaps) == set(out["penalty_pilot_bounds"]) == {"state", "lattice", "blend"}
     assert out["dual_penalty_choice"] == min(gaps, key=gaps.get) and out["penalty_pilot_gap_difference_se"] > 0
-    assert out["dual_penalty"].startswith({"lattice": "factor lattice", "state": "state LSMC"}[out["dual_penalty_choice"]])
+    assert out["penalty_pilot_paths"] == 50 and out["penalty_lattice_levels"] == 41  # no more than the bound's paths
+    assert out["dual_penalty"].startswith({"lattice": "factor lattice", "state": "state LSMC",
+                                           "blend": "0.5 x state LSMC"}[out["dual_penalty_choice"]])
 
 
 @pytest.mark.parametrize("fields", [(6.0, 1.2, 0.0, -0.6), (6.0, 0.0, 0.5, -0.6)])

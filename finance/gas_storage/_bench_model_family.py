@@ -1,7 +1,8 @@
 """`snapo bench gas-family --price-model two-factor|three-factor`: every method on every generated
 contract of `_family.py` under a multi-factor price model (the shipped example of that model,
 finance/data/price_model_*.yaml), the same fresh paths, one table. Each row says whether it
-meets the goals: SNAPO >= LSMC and >= rolling intrinsic (paired), SNAPO's gap to the bound
+meets the goals: SNAPO >= LSMC and >= rolling intrinsic (paired; against rolling intrinsic on
+each policy's cash less the bound's penalty where the bound ran), SNAPO's gap to the bound
 <= 1%, training and all deltas <= 60 s."""
 
 import pathlib
@@ -39,6 +40,8 @@ COLUMNS = (
     Column("rolling intrinsic", "rolling_intrinsic", _number), Column("LSMC", "lsmc_out_of_sample", ",.0f"),
     Column("SNAPO", "snapo_out_of_sample", ",.0f"), Column("SNAPO - LSMC", "snapo_minus_lsmc", ",.0f"),
     Column("paired SE", "snapo_minus_lsmc_se", ",.0f"), Column("SNAPO - rolling", "snapo_minus_rolling", _number),
+    Column("SNAPO - rolling, penalty CV", "snapo_minus_rolling_control_variate", _number),
+    Column("CV SE", "snapo_minus_rolling_control_variate_se", _number),
     Column("dual bound", "dual_upper_bound", _number), Column("penalty", "dual_penalty_choice"),
     Column("SNAPO gap", "snapo_gap", _percent),
     Column("LSMC gap", "lsmc_gap", _percent), Column("start", "snapo_start"),
@@ -50,7 +53,9 @@ def _goals(row: dict) -> str:
     missed = []
     if row["snapo_minus_lsmc"] < 0:
         missed.append(">= LSMC")
-    if row["snapo_minus_rolling"] is None or row["snapo_minus_rolling"] < 0:
+    rolling = row["snapo_minus_rolling_control_variate"]  # the sharper estimate, where the bound ran
+    rolling = row["snapo_minus_rolling"] if rolling is None else rolling
+    if rolling is None or rolling < 0:
         missed.append(">= rolling")
     if row["snapo_gap"] is None or row["snapo_gap"] > GAP_GOAL:
         missed.append("gap")
@@ -88,7 +93,8 @@ def run_model_family(out: pathlib.Path, model_name: str, *, paths: int, cases: i
         results[case.name] = {k: v for k, v in result.items() if k not in ("deltas", "lsmc_pathwise_deltas")}
         row = {"case": case.name, **{k: result.get(k) for k in (
             "intrinsic_lp", "rolling_intrinsic", "lsmc_out_of_sample", "snapo_out_of_sample", "snapo_minus_lsmc",
-            "snapo_minus_lsmc_se", "snapo_minus_rolling", "dual_upper_bound", "dual_penalty_choice", "snapo_gap", "lsmc_gap",
+            "snapo_minus_lsmc_se", "snapo_minus_rolling", "snapo_minus_rolling_control_variate",
+            "snapo_minus_rolling_control_variate_se", "dual_upper_bound", "dual_penalty_choice", "snapo_gap", "lsmc_gap",
             "snapo_start", "start_seconds", "snapo_seconds")}, "warning_count": len(result["warnings"])}
         row["goals"] = _goals(row)
         rows.append(row)

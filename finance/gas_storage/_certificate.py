@@ -109,14 +109,16 @@ def penalty_mean_check(out: dict, cash: np.ndarray, lower: np.ndarray) -> list[s
     """On given paths (a file), the penalty has mean zero for a non-anticipative policy only if
     the paths follow the price model whose conditional expectations built it: the penalty the
     intrinsic schedule pays (cash - lower, per path) is tested for mean zero (4 standard
-    errors); where it fails the bound is not certified and its fields become null."""
+    errors); where it fails the bound is not certified and its fields become null, and so do the
+    values with the penalty as control variate (`*_control_variate*`), biased by it too."""
     paid = cash - lower
     if abs(paid.mean()) <= 4 * standard_error(paid) + 1e-12 * (np.abs(cash).mean() + 1.0):
         return []
     _clear_bound(out)
+    out.update({key: None for key in out if "_control_variate" in key})
     return [f"dual bound not certified: the penalty paid by the intrinsic schedule has mean {paid.mean():,.2f} "
             f"(standard error {standard_error(paid):,.2f}), not zero: the paths do not follow the price model its "
-            "conditional expectations come from; its fields are null"]
+            "conditional expectations come from; its fields and the control-variate values are null"]
 
 
 def _bound_grid(inputs: StorageInputs, scene: Scene, grid: InventoryGrid, penalty, dual_nodes: int | None,

@@ -31,8 +31,16 @@ from ._lp import solve_intrinsic
 from ._lsmc import inventory_grid
 from ._model import deterministic_scene, spot_prices, stochastic_scene
 from ._model_lattice import lattice_points, solve_model_lattice
-from ._model_lattice_penalty import PILOT_PATHS, ModelLatticePenalty, penalty_points, tighter_penalty
+from ._model_lattice_penalty import (
+    BLEND_WEIGHT,
+    PILOT_PATHS,
+    ModelLatticePenalty,
+    penalty_lattices,
+    pilot_gaps,
+    tightest,
+)
 from ._paths import PricePaths
+from ._penalty import BlendedPenalty
 from ._price_models import AbstractPriceModel, model_paths
 from ._results import standard_error
 from ._rolling_intrinsic import rolling_intrinsic
@@ -48,7 +56,6 @@ MODEL_TRAINING = dict(train_paths=512, train_steps=300, learning_rate=3e-3, shar
 DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths (its grid's work)
 CORRECTION_PATHS = 250  # and its finer grid's correction on the first this many (`_bound`)
 ROLLING_PATHS = 500  # rolling intrinsic on the first this many evaluation paths (its work grows as T^2)
-_PENALTY_NAMES = {"StatePenalty": "state LSMC value", "ModelLatticePenalty": "factor lattice value"}
 
 
 def _paired(a, b) -> tuple[float, float]:
@@ -88,8 +95,9 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     # trained on samples of the training paths.
     start = time.perf_counter()
     points = lattice_points(model, inputs, scene, grid) if bounded else None
-    penalty_points_ = penalty_points(model, inputs, grid, points) if bounded else None
-    shared = penalty_points_ is not None and penalty_points_ == points  # one lattice, its tables kept
+    lattices = penalty_lattices(model, inputs, scene, grid, points) if bounded else []
+    # One lattice for both, its tables kept, where the penalty's only lattice is the start's.
+    shared = points is not None and len(lattices) == 1 and lattices[0][1] is grid and lattices[0][0] == points
     lattice = None if points is None else solve_model_lattice(model, inputs, scene, grid, points, keep_values=shared)
     # The policy carries the lattice's targets only: its value tables would ride in the optimiser and the saved file.
     start_lattice = None if lattice is None else lattice._replace(values=None)
@@ -157,16 +165,9 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     out["snapo_minus_rolling"], out["snapo_minus_rolling_se"] = _paired(np.asarray(snapo.value)[:count], rolling.value)
     policies["rolling_intrinsic"] = rolling
     start = time.perf_counter()
-    if penalty_points_ is not None:
-        lattice = lattice if shared else solve_model_lattice(model, inputs, scene, grid, penalty_points_,
-                                                             keep_values=True)
-        pilot = model_paths(model, inputs.forward_curve, PILOT_PATHS, jax.random.fold_in(jax.random.key(seed), 2))
-        penalty, choice = _chosen_penalty(penalty, ModelLatticePenalty(model, lattice), fit, inputs, scene, grid,
-                                          pilot, min(dual_paths, evaluation.shape[0]))
-    else:
-        choice = {"dual_penalty_choice": "state", "penalty_pilot_paths": None, "penalty_pilot_bounds": None,
-                  "penalty_pilot_gaps": None, "penalty_pilot_gap_difference_se": None}
-    out.update(choice, penalty_lattice_points=penalty_points_, penalty_choice_seconds=time.perf_counter() - start)
+    penalty, choice = _chosen_penalty(penalty, lattices, lattice if shared else None, model, fit, inputs, scene, grid,
+                                      seed, min(dual_paths, evaluation.shape[0]))
+    out.update(choice, penalty_choice_seconds=time.perf_counter() - start)
     out.update(_bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external))
     warnings += out.pop("bound_warnings")
     return {**out, "warnings": warnings, "policy": policy}
@@ -197,15 +198,45 @@ def _chosen_start(lattice, fit, inputs, scene, grid, training, seed):
     return policy, logits, fields
 
 
-def _chosen_penalty(state, lattice, fit, inputs, scene, grid, pilot, count):
-    """The state LSMC's `state` penalty or the factor `lattice`'s, whichever bounds the LSMC
-    `fit`'s rule more tightly on the `pilot` paths, on the grid the bound takes for `count`
-    evaluation paths (`tighter_penalty`); the JSON fields of the choice."""
+def _chosen_penalty(state, lattices, shared, model, fit, inputs, scene, grid, seed, count):
+    """The bound's penalty: the state LSMC's `state`, the factor lattices' (`lattices`: (points,
+    inventory grid), `penalty_lattices`; `shared`: the start's lattice, solved, where it is the
+    only one) or the even blend of the state's and the better lattice's (`BlendedPenalty`),
+    whichever bounds the LSMC `fit`'s rule most tightly on fresh paths of the model (PILOT_PATHS,
+    no more than the bound's `count`), on the grid the bound takes for `count` evaluation paths
+    (`pilot_gaps`). The lattices are solved one at a time, the better kept. Returns the penalty
+    and the JSON fields of the choice: the pilot's candidates are "state", "lattice" (on the
+    LSMC's grid), "lattice_per_flow" (on a grid of its own) and "blend";
+    `penalty_lattice_points` and `penalty_lattice_levels` are those of the better lattice."""
+    if not lattices:
+        return state, {"dual_penalty_choice": "state", "penalty_lattice_points": None, "penalty_lattice_levels": None,
+                       "penalty_pilot_paths": None, "penalty_pilot_bounds": None, "penalty_pilot_gaps": None,
+                       "penalty_pilot_gap_difference_se": None}
+    pilot = model_paths(model, inputs.forward_curve, min(PILOT_PATHS, count), jax.random.fold_in(jax.random.key(seed), 2))
     relaxed = relaxed_grid(inputs, scene, paths=count, work=DUAL_WORK)
-    candidates = {"state": state, "lattice": lattice}
-    name, fields = tighter_penalty(candidates, inputs, scene, grid, pilot, relaxed,
-                                   run_state_lsmc(fit, inputs, scene, grid, pilot))
-    return candidates[name], dict(fields, dual_penalty_choice=name, penalty_pilot_paths=pilot.shape[0])
+    reference = run_state_lsmc(fit, inputs, scene, grid, pilot)
+    bounds, gaps, penalties = {}, {}, {"state": state}
+    bounds["state"], gaps["state"] = pilot_gaps(state, inputs, scene, grid, pilot, relaxed, reference)
+    better = None
+    for points, own in lattices:
+        name = "lattice" if own is grid else "lattice_per_flow"
+        solved = shared if shared is not None else solve_model_lattice(model, inputs, scene, own, points,
+                                                                       keep_values=True)
+        lattice = ModelLatticePenalty(model, solved, own, grid)
+        bounds[name], gaps[name] = pilot_gaps(lattice, inputs, scene, grid, pilot, relaxed, reference)
+        if better is None or gaps[name].mean() < gaps[better[0]].mean():
+            better = name, lattice, points, own
+        del solved, lattice  # a losing lattice's tables are freed before the next is solved
+    name, penalties[name], points, own = better
+    penalties["blend"] = BlendedPenalty(state, penalties[name], BLEND_WEIGHT)
+    bounds["blend"], gaps["blend"] = pilot_gaps(penalties["blend"], inputs, scene, grid, pilot, relaxed, reference)
+    chosen, difference_se = tightest(gaps)
+    return penalties[chosen], {
+        "dual_penalty_choice": chosen if chosen in ("state", "blend") else "lattice", "penalty_lattice_points": points,
+        "penalty_lattice_levels": own.nodes, "penalty_pilot_paths": pilot.shape[0],
+        "penalty_pilot_bounds": {k: float(v.mean()) for k, v in bounds.items()},
+        "penalty_pilot_gaps": {k: float(v.mean()) for k, v in gaps.items()},
+        "penalty_pilot_gap_difference_se": difference_se}
 
 
 def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external) -> dict:
@@ -240,7 +271,7 @@ def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, exter
     estimate = float(upper.mean() + correction.mean())
     spread = float(np.hypot(standard_error(upper), standard_error(correction)))
     out = {"dual_upper_bound": estimate, "dual_upper_bound_se": spread,
-           "dual_penalty": f"{_PENALTY_NAMES[type(penalty).__name__]}, exact conditional means under "
+           "dual_penalty": f"{penalty.label}, exact conditional means under "
                            f"{type(penalty.model).__name__}",
            "dual_paths": count, "dual_grid_nodes": fine.nodes, "dual_relaxation": fine.relaxation,
            "dual_control_grid_nodes": control.nodes, "dual_control_relaxation": control.relaxation,
@@ -252,6 +283,7 @@ def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, exter
                     f"{name}_value_control_variate_se": standard_error(lower),
                     f"{name}_gap": float(margin.mean() + correction.mean()) / estimate,
                     f"{name}_gap_se": float(np.hypot(standard_error(margin), standard_error(correction))) / estimate})
+    out.update(_paired_with_penalty(lowers))
     # certify compares every policy path by path on the bound's paths: rolling intrinsic has fewer.
     full = {name: pair for name, pair in lowers.items() if pair[0].size == upper.size}
     warnings = certify(out, upper, full, fine.relaxation)
@@ -265,6 +297,21 @@ def _bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, exter
         warnings += penalty_mean_check(out, *lowers["intrinsic"])
     out["dual_seconds"] = time.perf_counter() - start
     return {**out, "bound_warnings": warnings}
+
+
+def _paired_with_penalty(lowers: dict) -> dict:
+    """SNAPO less LSMC and less rolling intrinsic, paired path by path on each policy's cash less
+    the penalty it pays (`_lowers`): the penalty has mean zero for every non-anticipative policy,
+    so each difference is an unbiased estimate of the values' difference, and much of the paths'
+    common noise (what the spot did, which every policy trades on) cancels in it.
+    `snapo_minus_<other>_control_variate` and `_se`, where both were valued."""
+    out = {}
+    for name, short in (("lsmc", "lsmc"), ("rolling_intrinsic", "rolling")):
+        if "snapo" in lowers and name in lowers:
+            other = lowers[name][1]
+            out[f"snapo_minus_{short}_control_variate"], out[f"snapo_minus_{short}_control_variate_se"] = _paired(
+                lowers["snapo"][1][:other.size], other)
+    return out
 
 
 def _lowers(penalty, inputs, grid, prices, paths, policies, relaxed, count) -> dict:

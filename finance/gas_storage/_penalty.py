@@ -172,7 +172,8 @@ class AbstractPenalty(eqx.Module):
     what each day needs (a pytree with a leading day axis, scanned over); `today` turns one
     day's slice into w_t for every path and node, shape (paths, N) [$]. `paths`: the same paths
     as `PricePaths` with the price model's state, for penalties that read more than the spot
-    (None where the spot is the whole state)."""
+    (None where the spot is the whole state). A subclass may name itself in reports by a class
+    attribute `label`."""
 
     @abc.abstractmethod
     def daily(self, inputs: StorageInputs, prices: jax.Array, paths=None):
@@ -242,3 +243,29 @@ def fit_penalty(fit: LSMCFit, inputs: StorageInputs, scene: Scene, grid: Invento
                inventory_floor(inputs, scene, None)[1:], steps)
     _, beta = jax.lax.scan(back, (zeros, zeros), per_day, reverse=True)
     return RegressionPenalty(basis, beta, fit.spot_scale, state_degree)
+
+
+class BlendedPenalty(AbstractPenalty):
+    """`weight` w1 + (1 - `weight`) w2 of two penalties `first` and `second` (each of conditional
+    mean zero, so the blend is too). The dual bound is convex in the penalty, so the blend's
+    bound is at most the same blend of the two bounds, and below both where their errors differ."""
+
+    first: AbstractPenalty
+    second: AbstractPenalty
+    weight: float = eqx.field(static=True)
+
+    @property
+    def label(self) -> str:
+        return f"{self.weight:g} x {self.first.label} + {1 - self.weight:g} x {self.second.label}"
+
+    @property
+    def model(self):
+        """The price model of the first penalty (whose conditional means it takes)."""
+        return self.first.model
+
+    def daily(self, inputs: StorageInputs, prices: jax.Array, paths=None):
+        return self.first.daily(inputs, prices, paths), self.second.daily(inputs, prices, paths)
+
+    def today(self, day_inputs) -> jax.Array:
+        first, second = day_inputs
+        return self.weight * self.first.today(first) + (1 - self.weight) * self.second.today(second)

@@ -15,6 +15,8 @@ beta is regressed, level by level, on paths other than the evaluation's, of the 
 own value estimate of the days after t (`"fitted"` in `_penalty.py`) on [state basis, features].
 """
 
+from typing import ClassVar
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -57,6 +59,7 @@ class StatePenalty(AbstractPenalty):
     """**Fields:** the `model` and `spot_basis` of the innovations, the `multipliers`' basis of
     the state, `coefficients` beta of shape (T, J P, N), zero on the last day."""
 
+    label: ClassVar[str] = "state LSMC value"
     model: AbstractPriceModel
     spot_basis: AbstractInnovationBasis
     multipliers: StateBasis
