@@ -49,6 +49,21 @@ def test_the_step_reaches_the_loss_without_recompiling():
     assert result.history["loss"][10] > result.history["loss"][9]  # the target moved at step 10
 
 
+def test_data_reaches_the_loss_as_an_argument_not_a_constant():
+    seen = []
+
+    def with_data(params, key, target):
+        seen.append(isinstance(target, jax.core.Tracer))  # traced: an input of the step, not baked in
+        return jnp.sum((params["x"] - target - jax.random.normal(key, (2,))) ** 2), {}
+
+    target = jnp.array([1.0, -2.0])
+    kwargs = dict(steps=20, key=jax.random.key(2), learning_rate=0.1, progress=False)
+    given = snapo_ode.train(with_data, {"x": jnp.zeros(2)}, data=target, **kwargs)
+    closed = snapo_ode.train(lambda params, key: with_data(params, key, target), {"x": jnp.zeros(2)}, **kwargs)
+    assert seen == [True, False]
+    np.testing.assert_array_equal(given.params["x"], closed.params["x"])
+
+
 def test_keep_best_false_returns_the_last_parameters():
     def noisy(params, key):  # the batch's noise makes some steps' losses lucky
         return jnp.sum((params["x"] - 1.0) ** 2) + jax.random.normal(key), {}
@@ -129,6 +144,18 @@ def test_resume_refuses_the_checkpoint_of_another_run_naming_what_differs(tmp_pa
             snapo_ode.train(noisy_loss, {"x": jnp.zeros(2)}, **{**again, **change})
     with pytest.raises(snapo_ode.InputError, match="initial parameters differ"):
         snapo_ode.train(noisy_loss, {"x": jnp.ones(2)}, **again)
+
+
+def test_resume_refuses_a_checkpoint_trained_on_other_data(tmp_path):
+    def on_data(params, key, target):
+        return jnp.sum((params["x"] - target) ** 2) + jax.random.normal(key), {}
+
+    settings = dict(steps=5, progress=False, checkpoint_path=tmp_path / "run.ckpt", key=jax.random.key(3))
+    snapo_ode.train(on_data, {"x": jnp.zeros(2)}, data=jnp.ones(2), **settings)
+    again = dict(settings, resume=True)
+    assert snapo_ode.train(on_data, {"x": jnp.zeros(2)}, data=jnp.ones(2), **again).steps_run == 5
+    with pytest.raises(snapo_ode.InputError, match="data differ"):
+        snapo_ode.train(on_data, {"x": jnp.zeros(2)}, data=jnp.array([1.0, 2.0]), **again)
 
 
 @pytest.mark.parametrize("header, message", [

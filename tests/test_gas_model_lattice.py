@@ -24,6 +24,7 @@ from finance.gas_storage._model_lattice import (
     lattice_points,
     solve_model_lattice,
 )
+from finance.gas_storage import _model_study
 from finance.gas_storage._model_study import value_on_model
 from finance.gas_storage._price_models import OneFactorModel, ThreeFactorSeasonalModel, TwoFactorModel, model_paths
 from finance.gas_storage._state_lsmc import fit_state_lsmc
@@ -107,15 +108,24 @@ def test_a_policy_started_on_the_lattice_is_written_and_read_back(tmp_path):
     assert gs.load_storage_policy(path).lattice is not None
 
 
-def test_the_study_starts_and_bounds_where_the_training_paths_say():
+def test_the_study_starts_and_bounds_where_the_training_paths_say(monkeypatch):
     model = MODELS["two-factor"]
     facility, curve = gs.CASES["bdj"]()
     inputs = gs.make_inputs(facility, curve[:30])
     training = model_paths(model, inputs.forward_curve, 1_000, jax.random.key(1))
     evaluation = model_paths(model, inputs.forward_curve, 500, jax.random.key(2))
+    monkeypatch.setattr(_model_study, "TRAINING_POOL", 400)
     out = value_on_model(model, inputs, training, evaluation, nodes=41, train_steps=2, rolling_paths=10,
                          dual_paths=50)
     assert out["lattice_points"] is not None and out["lattice_start_in_sample"] is not None
+    # The start is chosen on (and SNAPO trains on) the first TRAINING_POOL training paths, the LSMC regressed on all.
+    assert out["snapo_train_pool"] == 400 and out["train_paths_available"] == 1_000
+    grid, pool = inventory_grid(inputs, stochastic_scene(), 41), training[:400]
+    on_lsmc = make_state_policy(fit_state_lsmc(inputs, stochastic_scene(), grid, training), grid, pool,
+                                key=jax.random.key(0))
+    assert out["lsmc_start_in_sample"] == pytest.approx(
+        float(jnp.mean(simulate_state_policy(on_lsmc, inputs, stochastic_scene(), pool, sharpness=None).value)),
+        rel=1e-12)
     better = "lattice" if out["lattice_start_in_sample"] > out["lsmc_start_in_sample"] else "lsmc"
     assert out["snapo_start"] == better
     assert (out["policy"].lattice is not None) == (better == "lattice")

@@ -206,6 +206,16 @@ def continuation_decision(inputs: StorageInputs, scene: Scene, grid: InventoryGr
     return chosen(positions), chosen(cash)
 
 
+def first_argmax(values: jax.Array) -> jax.Array:
+    """The index of the first maximum along the last axis, as `jnp.argmax` (finite `values`):
+    the maximum, then the least index attaining it. Two plain reductions: on CPU, XLA's
+    `argmax` fused after a matrix product is ~3.5x slower (docs/dev/gas_storage_notes.md,
+    Measurements behind the design)."""
+    index = jnp.arange(values.shape[-1])
+    at_maximum = values == jnp.max(values, axis=-1, keepdims=True)
+    return jnp.min(jnp.where(at_maximum, index, values.shape[-1] - 1), axis=-1)
+
+
 def continuation_targets(inputs: StorageInputs, scene: Scene, value: jax.Array, positions: jax.Array, price: jax.Array,
                          day, spacing: float) -> tuple[jax.Array, jax.Array]:
     """The basestock targets of a continuation value: b_L = argmax_y [C(y) - p_in y] and
@@ -216,9 +226,9 @@ def continuation_targets(inputs: StorageInputs, scene: Scene, value: jax.Array, 
     step = jnp.asarray(spacing)
     # Cash per unit of inventory gained: injecting (negative) and withdrawing (positive, per unit lost).
     cash = flows_and_cash(inputs, scene, jnp.stack([step, -step]), price[:, None], day, None)[2] / step
-    low = positions[jnp.argmax(value + cash[:, :1] * positions, axis=-1)]
+    low = positions[first_argmax(value + cash[:, :1] * positions)]
     above = positions >= low[:, None]
-    high = positions[jnp.argmax(jnp.where(above, value - cash[:, 1:] * positions, -jnp.inf), axis=-1)]
+    high = positions[first_argmax(jnp.where(above, value - cash[:, 1:] * positions, -jnp.inf))]
     return low, high
 
 

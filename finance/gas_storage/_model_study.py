@@ -56,6 +56,11 @@ MODEL_TRAINING = dict(train_paths=512, train_steps=300, learning_rate=3e-3, shar
 DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths (its grid's work)
 CORRECTION_PATHS = 250  # and its finer grid's correction on the first this many (`_bound`)
 ROLLING_PATHS = 500  # rolling intrinsic on the first this many evaluation paths (its work grows as T^2)
+# SNAPO chooses its start on, and draws its minibatches from, the first this many training paths:
+# the start's targets are computed once for each (the LSMC's on 365 days and 418 levels: ~0.7 s
+# per 1,000 paths). Measured on 365- and 180-day contracts (docs/dev/gas_storage_notes.md, "The
+# 60-second row"): 10,000 train as well as 40,000, 5,000 worse.
+TRAINING_POOL = 10_000
 
 
 def _paired(a, b) -> tuple[float, float]:
@@ -91,9 +96,10 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     lsmc_fit_seconds = time.perf_counter() - start
     lsmc_value, lsmc_deltas = state_lsmc_value_and_deltas(fit, inputs, scene, grid, evaluation)
     lsmc = run_state_lsmc(fit, inputs, scene, grid, evaluation)
-    # SNAPO, started on the better on the training paths of the LSMC's and the factor lattice's targets,
-    # trained on samples of the training paths.
+    # SNAPO, started on the better on its pool of training paths of the LSMC's and the factor lattice's
+    # targets, trained on samples of the pool.
     start = time.perf_counter()
+    pool = training[:TRAINING_POOL]
     points = lattice_points(model, inputs, scene, grid) if bounded else None
     lattices = penalty_lattices(model, inputs, scene, grid, points) if bounded else []
     # One lattice for both, its tables kept, where the penalty's only lattice is the start's.
@@ -101,35 +107,36 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     lattice = None if points is None else solve_model_lattice(model, inputs, scene, grid, points, keep_values=shared)
     # The policy carries the lattice's targets only: its value tables would ride in the optimiser and the saved file.
     start_lattice = None if lattice is None else lattice._replace(values=None)
-    policy, train_start, starts = _chosen_start(start_lattice, fit, inputs, scene, grid, training, seed)
+    policy, train_start, starts = _chosen_start(start_lattice, fit, inputs, scene, grid, pool, seed)
     out_start = dict(starts, lattice_points=points, start_seconds=time.perf_counter() - start)
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
 
     start = time.perf_counter()
-    # The start's targets depend on the paths alone: computed once for every training and evaluation path.
+    # The start's targets depend on the paths alone: computed once for every pool and evaluation path.
     eval_start = eqx.filter_jit(policy.start_logits)(inputs, scene, evaluation)
 
-    def loss(policy, step_key):
-        rows = jax.random.randint(step_key, (settings["train_paths"],), 0, training.shape[0])
-        value = jnp.mean(simulate_state_policy(policy, inputs, scene, training[rows], sharpness=settings["sharpness"],
-                                               start=train_start[rows]).value)
+    def loss(policy, step_key, data):
+        paths, start = data
+        rows = jax.random.randint(step_key, (settings["train_paths"],), 0, paths.shape[0])
+        value = jnp.mean(simulate_state_policy(policy, inputs, scene, paths[rows], sharpness=settings["sharpness"],
+                                               start=start[rows]).value)
         return -value / scale, {"value": value}
 
     untrained = policy
     trained = snapo_ode.train(loss, policy, steps=settings["train_steps"], learning_rate=settings["learning_rate"],
                               key=jax.random.fold_in(jax.random.key(seed), 1), progress=progress,
-                              description="training storage policy (price model)")
+                              description="training storage policy (price model)", data=(pool, train_start))
     policy = trained.params
 
     @eqx.filter_jit
-    def smooth_value_and_deltas(policy, inputs, eval_start):
+    def smooth_value_and_deltas(policy, inputs, paths, start):
         def value(curve):
             moved = eqx.tree_at(lambda i: i.forward_curve, inputs, curve)
-            return jnp.mean(simulate_state_policy(policy, moved, scene, evaluation, sharpness=settings["sharpness"],
-                                                  start=eval_start).value)
+            return jnp.mean(simulate_state_policy(policy, moved, scene, paths, sharpness=settings["sharpness"],
+                                                  start=start).value)
         return jax.value_and_grad(value)(inputs.forward_curve)
 
-    snapo_smooth, snapo_deltas = smooth_value_and_deltas(policy, inputs, eval_start)
+    snapo_smooth, snapo_deltas = smooth_value_and_deltas(policy, inputs, evaluation, eval_start)
     snapo_seconds = time.perf_counter() - start
     # The report's hard values, on the evaluation paths: the start untrained, and the trained policy.
     start = time.perf_counter()
@@ -140,7 +147,7 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     policies = {"snapo": snapo, "lsmc": lsmc, "intrinsic": intrinsic_schedule(inputs, scene, intrinsic, eval_prices)}
     out = {
         "price_model": None if model is None else type(model).__name__, "paths": evaluation.shape[0],
-        "train_paths_available": training.shape[0], "intrinsic_lp": intrinsic.value,
+        "train_paths_available": training.shape[0], "snapo_train_pool": pool.shape[0], "intrinsic_lp": intrinsic.value,
         "lsmc_out_of_sample": float(np.mean(lsmc.value)), "lsmc_se": standard_error(lsmc.value),
         "lsmc_in_sample": float(np.mean(fit.values)), "lsmc_degree": degree, "lsmc_nodes": grid.nodes,
         "lsmc_fit_seconds": lsmc_fit_seconds, "lsmc_pathwise_deltas": np.asarray(lsmc_deltas).tolist(),
@@ -180,19 +187,21 @@ def _chosen_start(lattice, fit, inputs, scene, grid, training, seed):
     start is valued). Returns the policy, its start's logits on the training paths and the JSON
     fields of the choice."""
     key = jax.random.key(seed)
-    start_logits = eqx.filter_jit(lambda policy: policy.start_logits(inputs, scene, training))
-    in_sample = eqx.filter_jit(lambda policy, start: jnp.mean(
-        simulate_state_policy(policy, inputs, scene, training, sharpness=None, start=start).value))
+    # The paths are arguments of the compiled programs, not constants baked into them (`snapo_ode.train`'s `data`).
+    start_logits = eqx.filter_jit(lambda policy, paths: policy.start_logits(inputs, scene, paths))
+    in_sample = eqx.filter_jit(lambda policy, paths, start: jnp.mean(
+        simulate_state_policy(policy, inputs, scene, paths, sharpness=None, start=start).value))
     policy = make_state_policy(fit, grid, training, key=key)
-    logits = start_logits(policy)
+    logits = start_logits(policy, training)
     fields = {"snapo_start": "lsmc", "lsmc_start_in_sample": None, "lattice_start_in_sample": None,
               "lattice_value": None}
     if lattice is None:  # no choice to make: nothing valued
         return policy, logits, fields
-    fields["lsmc_start_in_sample"] = float(in_sample(policy, logits))
+    fields["lsmc_start_in_sample"] = float(in_sample(policy, training, logits))
     on_lattice = make_state_policy(fit, grid, training, key=key, lattice=lattice)
-    lattice_logits = start_logits(on_lattice)
-    fields.update(lattice_start_in_sample=float(in_sample(on_lattice, lattice_logits)), lattice_value=float(lattice.value))
+    lattice_logits = start_logits(on_lattice, training)
+    fields.update(lattice_start_in_sample=float(in_sample(on_lattice, training, lattice_logits)),
+                  lattice_value=float(lattice.value))
     if fields["lattice_start_in_sample"] > fields["lsmc_start_in_sample"]:
         return on_lattice, lattice_logits, dict(fields, snapo_start="lattice")
     return policy, logits, fields
