@@ -25,7 +25,7 @@ from finance.gas_storage._bench_family import chosen_cases
 from finance.gas_storage._dual import DUAL_WORK, relaxed_grid
 from finance.gas_storage._lsmc import inventory_grid
 from finance.gas_storage._model_lattice import lattice_points, solve_model_lattice
-from finance.gas_storage._model_lattice_penalty import ModelLatticePenalty, penalty_lattices, pilot_gaps
+from finance.gas_storage._model_lattice_penalty import BLEND_WEIGHT, ModelLatticePenalty, penalty_lattices, pilot_gaps
 from finance.gas_storage._model_study import LEVELS_PER_FLOW, NODES_AT_LEAST
 from finance.gas_storage._penalty import BlendedPenalty
 from finance.gas_storage._price_model_file import sample_price_model
@@ -66,13 +66,14 @@ def main(name: str, model_name: str, train: int, pilot_count: int, per_flow: int
         lattice = ModelLatticePenalty(model, solve_model_lattice(model, inputs, scene, own, points_, keep_values=True),
                                       own, grid)
         print(f"lattice {points_} points, {own.nodes} levels: solved in {time.time() - t:.0f} s", flush=True)
+        blend = BlendedPenalty(state, lattice, BLEND_WEIGHT)
         for label, penalty in ((f"lattice {points_} x {own.nodes}", lattice),
-                               (f"blend with lattice {points_} x {own.nodes}", BlendedPenalty(state, lattice, 0.5))):
+                               (f"blend with lattice {points_} x {own.nodes}", blend)):
             t = time.time()
             their_bounds, their_gaps = pilot_gaps(penalty, inputs, scene, grid, pilot, relaxed, reference)
             _report(f"{label} ({time.time() - t:.0f} s): bound", their_bounds, bounds)
             _report(f"{label}: the LSMC rule's gap", their_gaps, gaps)
-        del lattice
+        del lattice, blend
 
 
 if __name__ == "__main__":
