@@ -89,9 +89,9 @@ def train(
       decay that changes over the training).
     - `data`: a pytree passed to `loss_fn` as its last argument, `loss_fn(params, [key,] [step,]
       data)`: the arrays the loss reads (training paths, scenarios) enter the compiled step as
-      arguments. Arrays the loss closes over are baked into the program as constants instead: on
-      a 365-day storage contract (350 MB of paths) that made the step's first compile ~10x slower
-      and its cache entry as large. Part of the run's fingerprint.
+      arguments. Arrays the loss closes over are baked into the program as constants instead,
+      which makes a large data set's first compile slow and its cache entry as large
+      (docs/dev/gas_storage_notes.md, "The 60-second row"). Part of the run's fingerprint.
     - `keep_best`: return (and checkpoint) the parameters with the lowest loss seen; `False`: the
       parameters after the last step (on divergence, the last ones with a finite loss). When
       every step draws a fresh random batch, the lowest batch loss marks a lucky batch more than

@@ -209,7 +209,7 @@ def continuation_decision(inputs: StorageInputs, scene: Scene, grid: InventoryGr
 def first_argmax(values: jax.Array) -> jax.Array:
     """The index of the first maximum along the last axis, as `jnp.argmax` (finite `values`):
     the maximum, then the least index attaining it. Two plain reductions: on CPU, XLA's
-    `argmax` fused after a matrix product is ~3.5x slower (docs/dev/gas_storage_notes.md,
+    `argmax` fused after a matrix product is several times slower (docs/dev/gas_storage_notes.md,
     Measurements behind the design)."""
     index = jnp.arange(values.shape[-1])
     at_maximum = values == jnp.max(values, axis=-1, keepdims=True)

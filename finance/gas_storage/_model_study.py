@@ -46,7 +46,7 @@ from ._results import standard_error
 from ._rolling_intrinsic import rolling_intrinsic
 from ._state_lsmc import fit_state_lsmc, run_state_lsmc, state_lsmc_value_and_deltas
 from ._state_penalty import fit_state_lsmc_and_penalty
-from ._state_policy import make_state_policy, simulate_state_policy
+from ._state_policy import chosen_start, simulate_state_policy
 from ._versus_lsmc import trading_nodes
 
 STATE_DEGREE = 2  # the state LSMC's default total degree (`value_on_model`; `--lsmc-degree` sets it)
@@ -57,9 +57,8 @@ DUAL_PATHS = 2_000  # the bound runs on the first this many evaluation paths (it
 CORRECTION_PATHS = 250  # and its finer grid's correction on the first this many (`_bound`)
 ROLLING_PATHS = 500  # rolling intrinsic on the first this many evaluation paths (its work grows as T^2)
 # SNAPO chooses its start on, and draws its minibatches from, the first this many training paths:
-# the start's targets are computed once for each (the LSMC's on 365 days and 418 levels: ~0.7 s
-# per 1,000 paths). Measured on 365- and 180-day contracts (docs/dev/gas_storage_notes.md, "The
-# 60-second row"): 10,000 train as well as 40,000, 5,000 worse.
+# the start's targets are computed once for each, the larger cost of a long contract's start
+# (docs/dev/gas_storage_notes.md, "The 60-second row": a smaller pool trains worse).
 TRAINING_POOL = 10_000
 
 
@@ -107,7 +106,7 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     lattice = None if points is None else solve_model_lattice(model, inputs, scene, grid, points, keep_values=shared)
     # The policy carries the lattice's targets only: its value tables would ride in the optimiser and the saved file.
     start_lattice = None if lattice is None else lattice._replace(values=None)
-    policy, train_start, starts = _chosen_start(start_lattice, fit, inputs, scene, grid, pool, seed)
+    policy, train_start, starts = chosen_start(start_lattice, fit, inputs, scene, grid, pool, seed)
     out_start = dict(starts, lattice_points=points, start_seconds=time.perf_counter() - start)
     scale = float(inputs.capacity * jnp.mean(jnp.abs(inputs.forward_curve)))
 
@@ -178,33 +177,6 @@ def value_on_model(model: AbstractPriceModel | None, inputs: StorageInputs, trai
     out.update(_bound(penalty, inputs, scene, grid, evaluation, policies, dual_paths, external))
     warnings += out.pop("bound_warnings")
     return {**out, "warnings": warnings, "policy": policy}
-
-
-def _chosen_start(lattice, fit, inputs, scene, grid, training, seed):
-    """The untrained `StatePolicy` on the LSMC `fit`'s targets or, where the factor `lattice` is
-    given (None where unaffordable: `lattice_points`), on the lattice's: whichever values more,
-    hard, on the `training` paths (the evaluation paths are not seen; without a lattice neither
-    start is valued). Returns the policy, its start's logits on the training paths and the JSON
-    fields of the choice."""
-    key = jax.random.key(seed)
-    # The paths are arguments of the compiled programs, not constants baked into them (`snapo_ode.train`'s `data`).
-    start_logits = eqx.filter_jit(lambda policy, paths: policy.start_logits(inputs, scene, paths))
-    in_sample = eqx.filter_jit(lambda policy, paths, start: jnp.mean(
-        simulate_state_policy(policy, inputs, scene, paths, sharpness=None, start=start).value))
-    policy = make_state_policy(fit, grid, training, key=key)
-    logits = start_logits(policy, training)
-    fields = {"snapo_start": "lsmc", "lsmc_start_in_sample": None, "lattice_start_in_sample": None,
-              "lattice_value": None}
-    if lattice is None:  # no choice to make: nothing valued
-        return policy, logits, fields
-    fields["lsmc_start_in_sample"] = float(in_sample(policy, training, logits))
-    on_lattice = make_state_policy(fit, grid, training, key=key, lattice=lattice)
-    lattice_logits = start_logits(on_lattice, training)
-    fields.update(lattice_start_in_sample=float(in_sample(on_lattice, training, lattice_logits)),
-                  lattice_value=float(lattice.value))
-    if fields["lattice_start_in_sample"] > fields["lsmc_start_in_sample"]:
-        return on_lattice, lattice_logits, dict(fields, snapo_start="lattice")
-    return policy, logits, fields
 
 
 def _chosen_penalty(state, lattices, shared, model, fit, inputs, scene, grid, seed, count):

@@ -148,6 +148,34 @@ def simulate_state_policy(policy: StatePolicy, inputs: StorageInputs, scene: Sce
     return follow_targets(inputs, scene, low.T, high.T, prices, start, floor, sharpness)
 
 
+def chosen_start(lattice: ModelLattice | None, fit: StateLSMCFit, inputs: StorageInputs, scene: Scene,
+                 grid: InventoryGrid, training: PricePaths, seed: int):
+    """The untrained `StatePolicy` on the LSMC `fit`'s targets or, where the factor `lattice` is
+    given (None where unaffordable: `lattice_points`), on the lattice's: whichever values more,
+    hard, on the `training` paths (the evaluation paths are not seen; without a lattice neither
+    start is valued). Returns the policy, its start's logits on the training paths and the JSON
+    fields of the choice."""
+    key = jax.random.key(seed)
+    # The paths are arguments of the compiled programs, not constants baked into them (`snapo_ode.train`'s `data`).
+    start_logits = eqx.filter_jit(lambda policy, paths: policy.start_logits(inputs, scene, paths))
+    in_sample = eqx.filter_jit(lambda policy, paths, start: jnp.mean(
+        simulate_state_policy(policy, inputs, scene, paths, sharpness=None, start=start).value))
+    policy = make_state_policy(fit, grid, training, key=key)
+    logits = start_logits(policy, training)
+    fields = {"snapo_start": "lsmc", "lsmc_start_in_sample": None, "lattice_start_in_sample": None,
+              "lattice_value": None}
+    if lattice is None:  # no choice to make: nothing valued
+        return policy, logits, fields
+    fields["lsmc_start_in_sample"] = float(in_sample(policy, training, logits))
+    on_lattice = make_state_policy(fit, grid, training, key=key, lattice=lattice)
+    lattice_logits = start_logits(on_lattice, training)
+    fields.update(lattice_start_in_sample=float(in_sample(on_lattice, training, lattice_logits)),
+                  lattice_value=float(lattice.value))
+    if fields["lattice_start_in_sample"] > fields["lsmc_start_in_sample"]:
+        return on_lattice, lattice_logits, dict(fields, snapo_start="lattice")
+    return policy, logits, fields
+
+
 def _basis_header(basis: StateBasis) -> dict:
     return {"shape": list(basis.mean.shape), "exponents": [list(e) for e in basis.exponents]}
 
